@@ -1,0 +1,1 @@
+//! Sessions: one trial recorded to one MCAP file, and reading it back.

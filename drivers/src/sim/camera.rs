@@ -1,0 +1,1 @@
+//! The simulated camera: renders the ArUco marker on the object.
