@@ -1,2 +1,24 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
+
+pub mod aruco;
+pub mod axis;
+pub mod error;
+pub mod pose;
+
+#[cfg(test)]
+mod sim_tests;
+
+pub use aruco::{
+    CornerRefinement, Dictionary, MarkerDetection, MarkerDetector, MarkerTracker, PixelRoi, marker_pattern,
+};
+pub use axis::{SlidingAxis, SlidingProjector};
+pub use error::MarkerError;
+pub use pose::{MarkerPose, marker_pose};
+
+/// Makes OpenCV run its functions on the calling thread only (benchmarks on one core).
+pub fn use_one_thread() {
+    if let Err(e) = opencv::core::set_num_threads(1) {
+        tracing::warn!("cannot limit OpenCV to one thread: {e}");
+    }
+}

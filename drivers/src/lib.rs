@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 mod camera;
+mod config;
 mod error;
 mod hand;
 mod image;
@@ -9,6 +10,7 @@ mod tactile;
 mod time;
 
 pub use camera::{Camera, CameraIntrinsics, Frame};
+pub use config::{ConfigError, parse_toml};
 pub use error::{DeviceError, ErrorKind};
 pub use hand::{FingerVolts, HandActuator, saturate};
 pub use image::{EncodedImage, Image, PixelFormat};

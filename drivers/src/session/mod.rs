@@ -1,1 +1,39 @@
 //! Sessions: one trial recorded to one MCAP file, and reading it back.
+//!
+//! - [`Recorder`] writes a session on its own thread (zstd chunks closed at
+//!   least every second, so a killed process leaves a readable prefix).
+//! - [`SessionInfo`], [`MessageReader`] and [`read_json`] read one back with
+//!   bounded memory; [`export_csv`] flattens a channel to CSV.
+//! - The message types of the channels are in [`messages`] and [`vision`];
+//!   the format is documented in `docs/session-format.md`.
+
+mod csv;
+mod error;
+pub mod messages;
+mod metadata;
+mod reader;
+mod recorder;
+mod scan;
+mod schema;
+mod summary;
+pub mod vision;
+mod writer;
+mod writer_thread;
+
+#[cfg(test)]
+mod tests;
+
+pub use csv::{CsvSummary, export_csv};
+pub use error::SessionError;
+pub use messages::{
+    ChannelMessage, ChannelSpec, FingerSetpoint, GraspControl, HandCommand, PerFinger, ProtocolEvent,
+    RecorderStats, SimTruth, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, TaxelRef, Xyz,
+    channel_specs,
+};
+pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
+pub use reader::{ChannelDesc, MessageReader, RawMessage, ReadOptions, read_channel, read_json};
+pub use recorder::Recorder;
+pub use schema::JSON_SCHEMA_DIALECT;
+pub use summary::{AttachmentSummary, ChannelSummary, SessionInfo};
+pub use vision::{ArucoDetection, CameraCalibration, CompressedImage, FoxgloveTime, Quaternion};
+pub use writer::{ChannelHandle, Logger, RecorderOptions};

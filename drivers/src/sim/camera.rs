@@ -1,1 +1,115 @@
 //! The simulated camera: renders the ArUco marker on the object.
+//!
+//! A pinhole camera with plumb-bob distortion looks at the object held in the
+//! hand. Every output pixel is lit by the ray through its (distorted) pixel
+//! position: the ray is undistorted once at start-up ([`CameraIntrinsics::undistort_pixel`]
+//! on a grid of pixel corners), then intersected per frame with the plane of
+//! the object's marker face and, once for the whole run, with a static
+//! textured background plane behind the object. Marker cell edges are
+//! anti-aliased by 4x4 supersampling of the pixels whose corners see
+//! different cells; the image is then blurred (Gaussian), Gaussian noise is
+//! added and the result quantised to 8 bits. Only the object's bounding box is
+//! re-rendered per frame; the blurred background is kept from start-up.
+//!
+//! Frames, all right-handed:
+//! - `hand`: origin at the palm, x forward towards the object, y left, z up.
+//! - `object`: the object's own frame; its marker face looks along +x, the
+//!   face's "up" is +z and, seen from the camera, its "right" is +y.
+//! - `camera`: OpenCV convention, x right, y down, z forward (optical axis).
+//! - `marker`: OpenCV's ArUco convention, origin at the marker centre, x right,
+//!   y up (as printed), z out of the face towards the viewer.
+//!
+//! The module does not depend on OpenCV: the marker's bits come from the
+//! caller as a [`MarkerPattern`] (the calibration crate extracts them from
+//! OpenCV's dictionaries).
+
+use thiserror::Error;
+
+mod blocks;
+mod board;
+mod config;
+mod face;
+mod object;
+mod raster;
+mod render;
+mod texture;
+
+#[cfg(test)]
+mod tests;
+
+pub use board::Chessboard;
+pub use config::{BackgroundConfig, CameraPlacement, SimCameraConfig};
+pub use object::{MarkerPattern, ObjectAppearance};
+pub use render::{SimCameraRenderer, encode_jpeg};
+
+/// Why a simulated camera could not be built or could not encode a frame.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum SimCameraError {
+    /// The image size is zero or too large for JPEG (65535 px per side).
+    #[error("image size {width}x{height} px is not usable (1..=65535 px per side)")]
+    BadImageSize {
+        /// Width (px).
+        width: u32,
+        /// Height (px).
+        height: u32,
+    },
+    /// A focal length is not a positive finite number.
+    #[error("focal lengths fx = {fx} px, fy = {fy} px must be positive")]
+    BadFocalLength {
+        /// Focal length along x (px).
+        fx: f64,
+        /// Focal length along y (px).
+        fy: f64,
+    },
+    /// A configuration number is outside its valid range.
+    #[error("{what} = {value} is out of range ({expected})")]
+    OutOfRange {
+        /// Name of the setting, as in the configuration file.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+        /// The valid range, in words.
+        expected: &'static str,
+    },
+    /// The look-at placement has no defined orientation: the camera sits on
+    /// its target, or the view direction is parallel to `up`.
+    #[error(
+        "camera look-at is degenerate: position {position_m:?} m, target {look_at_m:?} m, up {up_in_hand:?}"
+    )]
+    DegenerateLookAt {
+        /// Camera position in the hand frame (m).
+        position_m: [f64; 3],
+        /// Target in the hand frame (m).
+        look_at_m: [f64; 3],
+        /// Up direction in the hand frame.
+        up_in_hand: [f64; 3],
+    },
+    /// A quaternion of zero (or non-finite) norm.
+    #[error("camera orientation quaternion {quaternion_xyzw:?} has no usable norm")]
+    BadQuaternion {
+        /// The quaternion as given, `[x, y, z, w]`.
+        quaternion_xyzw: [f64; 4],
+    },
+    /// The background plane normal has zero length.
+    #[error("background plane normal {normal_in_hand:?} has zero length")]
+    BadBackgroundNormal {
+        /// The normal as given, in the hand frame.
+        normal_in_hand: [f64; 3],
+    },
+    /// The marker pattern's bit count does not match its size.
+    #[error("marker pattern {dictionary} id {id}: {bits_len} bits given for {cells}x{cells} cells")]
+    BadMarkerPattern {
+        /// Dictionary name, for messages.
+        dictionary: String,
+        /// Marker id.
+        id: u32,
+        /// Inner cells per side.
+        cells: usize,
+        /// Number of bits supplied.
+        bits_len: usize,
+    },
+    /// The JPEG encoder refused the image.
+    #[error("JPEG encoding failed: {0}")]
+    Jpeg(#[from] jpeg_encoder::EncodingError),
+}

@@ -1,0 +1,82 @@
+//! The error type of the marker pipeline (dictionaries, detection, pose).
+
+use thiserror::Error;
+
+/// What went wrong while handling ArUco markers.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum MarkerError {
+    /// The dictionary name is not one of OpenCV's predefined dictionaries.
+    #[error("unknown ArUco dictionary {name:?}; valid names: {}", valid.join(", "))]
+    UnknownDictionary {
+        /// The name as given.
+        name: String,
+        /// Every valid name.
+        valid: Vec<&'static str>,
+    },
+    /// The marker id is not in the dictionary.
+    #[error("marker id {id} is not in {dictionary} (valid ids 0..{count})")]
+    IdOutOfRange {
+        /// Dictionary name.
+        dictionary: &'static str,
+        /// The id asked for.
+        id: u32,
+        /// Number of markers in the dictionary.
+        count: u32,
+    },
+    /// The image's byte count does not match its size and pixel format.
+    #[error("image {width}x{height} ({channels} channel(s)) should hold {expected} bytes, holds {len}")]
+    BadImage {
+        /// Width (px).
+        width: u32,
+        /// Height (px).
+        height: u32,
+        /// Channels per pixel.
+        channels: usize,
+        /// Bytes expected.
+        expected: usize,
+        /// Bytes present.
+        len: usize,
+    },
+    /// The marker side length is not a positive finite number.
+    #[error("marker size {size_m} m must be positive and finite")]
+    BadMarkerSize {
+        /// The size given (m).
+        size_m: f64,
+    },
+    /// A detection has a non-finite corner.
+    #[error("marker {id}: corner {corners_px:?} px is not finite")]
+    NonFiniteCorner {
+        /// Marker id.
+        id: u32,
+        /// The corners given (px).
+        corners_px: [[f64; 2]; 4],
+    },
+    /// `solvePnP` found no pose.
+    #[error("marker {id}: solvePnP (IPPE_SQUARE) found no pose")]
+    NoPose {
+        /// Marker id.
+        id: u32,
+    },
+    /// An OpenCV call failed.
+    #[error("OpenCV {operation} failed: {source}")]
+    OpenCv {
+        /// The OpenCV function, for example `detectMarkers`.
+        operation: &'static str,
+        /// OpenCV's error.
+        #[source]
+        source: opencv::Error,
+    },
+}
+
+/// Attaches the OpenCV function name to OpenCV errors.
+pub(crate) trait OpenCvContext<T> {
+    /// Maps an OpenCV error to [`MarkerError::OpenCv`].
+    fn cv(self, operation: &'static str) -> Result<T, MarkerError>;
+}
+
+impl<T> OpenCvContext<T> for opencv::Result<T> {
+    fn cv(self, operation: &'static str) -> Result<T, MarkerError> {
+        self.map_err(|source| MarkerError::OpenCv { operation, source })
+    }
+}

@@ -1,0 +1,443 @@
+//! Drawing a textured plane into a frame, block by block.
+//!
+//! Patterns are cut into *parts* of one colour, each a convex set minus at
+//! most one axis-aligned box (its hole). A group of pixels (a block, or one
+//! pixel) whose corners all fall in the same part, and whose corners' bounding
+//! box misses the part's hole, lies entirely in the part: its footprint on the
+//! plane is the quadrilateral of its corners (up to the lens distortion's
+//! curvature over a few pixels, covered by a small margin).
+//!
+//! The rectangle around the plane's outline is cut into square blocks. Only
+//! blocks that are not uniform, or that touch a block of another colour, are
+//! rendered per pixel, blurred and written; uniform blocks surrounded by their
+//! own colour are written as a constant, or left alone when they show the
+//! background (the frame already holds it, blurred).
+
+use super::raster::{PixelRect, PlaneInCamera, UndistortionMap, luma, quantise, to_fixed};
+
+/// Sample positions inside a pixel (fractions of its side from the top-left
+/// corner) for pixels that straddle a colour boundary: 8 samples on an
+/// "n-rooks" pattern (one per row and per column of an 8 x 8 grid), so an
+/// axis-aligned edge, the common case for a marker, is resolved to 1/8 px.
+const SAMPLES: [(f64, f64); 8] = {
+    const ROWS: [usize; 8] = [2, 5, 0, 7, 3, 6, 1, 4];
+    let mut out = [(0.0, 0.0); 8];
+    let mut k = 0;
+    while k < 8 {
+        out[k] = ((k as f64 + 0.5) / 8.0, (ROWS[k] as f64 + 0.5) / 8.0);
+        k += 1;
+    }
+    out
+};
+
+/// Part value of rays that miss the plane (or see its hidden side).
+pub(super) const MISS: u32 = u32::MAX;
+
+/// A pattern on a plane, cut into parts of constant colour.
+pub(super) trait PlanarPattern {
+    /// The part containing plane point `(a, b)` (m, along the plane's x and y
+    /// axes); values below [`PlanarPattern::part_count`].
+    fn part(&self, a: f64, b: f64) -> u32;
+    /// Number of parts.
+    fn part_count(&self) -> u32;
+    /// Colour of a part (0..255 per channel, sRGB), `None` where the plane
+    /// is transparent (outside its outline).
+    fn colour(&self, part: u32) -> Option<[f32; 3]>;
+    /// The box `[a0, a1, b0, b1]` (m) cut out of a part, if any: the part is a
+    /// convex set minus this box.
+    fn hole(&self, part: u32) -> Option<[f64; 4]>;
+    /// A part whose colour covers all of `bounds` (`[a0, a1, b0, b1]`, m),
+    /// when the whole box has one colour (it may span several parts).
+    fn colour_in_box(&self, bounds: [f64; 4]) -> Option<u32>;
+}
+
+/// Whether two boxes `[a0, a1, b0, b1]` are disjoint.
+#[inline]
+pub(super) fn disjoint(p: [f64; 4], q: [f64; 4]) -> bool {
+    p[1] < q[0] || p[0] > q[1] || p[3] < q[2] || p[2] > q[3]
+}
+
+/// Whether box `inner` lies inside box `outer`.
+#[inline]
+pub(super) fn inside(inner: [f64; 4], outer: [f64; 4]) -> bool {
+    inner[0] >= outer[0] && inner[1] <= outer[1] && inner[2] >= outer[2] && inner[3] <= outer[3]
+}
+
+/// Whether `(a, b)` lies in the box `[a0, a1, b0, b1]` (edges included).
+#[inline]
+pub(super) fn in_box(a: f64, b: f64, [a0, a1, b0, b1]: [f64; 4]) -> bool {
+    a >= a0 && a <= a1 && b >= b0 && b <= b1
+}
+
+/// Where the frame is drawn: its bytes, the noise for each byte, its width.
+pub(super) struct Target<'a> {
+    /// The frame, `C` bytes per pixel.
+    pub data: &'a mut [u8],
+    /// Fixed-point noise for every byte of `data`.
+    pub noise: &'a [i16],
+    /// Frame width (px).
+    pub image_width: usize,
+}
+
+/// The inputs shared by every frame.
+pub(super) struct Scene<'a> {
+    /// Undistorted rays at the pixel corners.
+    pub map: &'a UndistortionMap,
+    /// The unblurred background, `C` floats per pixel.
+    pub background: &'a [f32],
+    /// The blur kernel (odd length; one tap for no blur).
+    pub kernel: &'a [f32],
+}
+
+/// What the renderer knows of a block.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Block {
+    /// One colour class (0 = background).
+    Uniform(u16),
+    /// Several parts.
+    Mixed,
+}
+
+/// Buffers reused from frame to frame.
+#[derive(Default)]
+pub(super) struct BlockScratch {
+    patch: Vec<f32>,
+    coarse: Vec<Corner>,
+    blocks: Vec<Block>,
+    active: Vec<bool>,
+    corners: Vec<Corner>,
+    horizontal: Vec<f32>,
+    vertical: Vec<f32>,
+    fixed: Vec<i16>,
+    /// Render every block per pixel, over the whole image (a reference for tests).
+    pub exhaustive: bool,
+}
+
+/// Plane coordinates (m; NaN when the ray misses) and part at a pixel corner.
+#[derive(Clone, Copy)]
+struct Corner {
+    ab: [f64; 2],
+    part: u32,
+}
+
+/// The pattern with its parts' colours resolved for `C` channels.
+struct Resolved<'a, P, const C: usize> {
+    pattern: &'a P,
+    /// Colour class of each part: 0 = background, else an index in `classes`.
+    part_class: Vec<u16>,
+    classes: Vec<[f32; C]>,
+    holes: Vec<Option<[f64; 4]>>,
+}
+
+impl<'a, P: PlanarPattern, const C: usize> Resolved<'a, P, C> {
+    fn new(pattern: &'a P) -> Self {
+        let mut classes: Vec<[f32; C]> = vec![[0.0; C]];
+        let mut part_class = Vec::new();
+        for part in 0..pattern.part_count() {
+            let class = match pattern.colour(part) {
+                None => 0,
+                Some(rgb) => {
+                    let colour: [f32; C] = std::array::from_fn(|c| if C == 1 { luma(rgb) } else { rgb[c] });
+                    match classes.iter().position(|k| *k == colour) {
+                        Some(k) if k > 0 => k,
+                        _ => {
+                            classes.push(colour);
+                            classes.len() - 1
+                        }
+                    }
+                }
+            };
+            part_class.push(class as u16);
+        }
+        let holes = (0..pattern.part_count()).map(|part| pattern.hole(part)).collect();
+        Resolved { pattern, part_class, classes, holes }
+    }
+
+    #[inline]
+    fn class(&self, part: u32) -> u16 {
+        if part == MISS { 0 } else { self.part_class[part as usize] }
+    }
+
+    /// The colour class of the quadrilateral of these corners, if it has one.
+    #[inline]
+    fn uniform_class(&self, corners: [Corner; 4]) -> Option<u16> {
+        let part = corners[0].part;
+        let same_part = corners.iter().all(|c| c.part == part);
+        if part == MISS || corners.iter().any(|c| c.part == MISS) {
+            return same_part.then_some(0);
+        }
+        let (mut a0, mut a1, mut b0, mut b1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for c in corners {
+            a0 = a0.min(c.ab[0]);
+            a1 = a1.max(c.ab[0]);
+            b0 = b0.min(c.ab[1]);
+            b1 = b1.max(c.ab[1]);
+        }
+        // A margin of 1 % of the footprint covers the curvature of its edges.
+        let margin = 0.01 * ((a1 - a0) + (b1 - b0));
+        let bounds = [a0 - margin, a1 + margin, b0 - margin, b1 + margin];
+        if same_part && self.holes[part as usize].is_none_or(|hole| disjoint(bounds, hole)) {
+            return Some(self.class(part));
+        }
+        self.pattern.colour_in_box(bounds).map(|part| self.class(part))
+    }
+}
+
+/// Draws `pattern` on `plane` into `target` over `rect`, which must contain
+/// the plane's outline grown by at least `block_size + kernel radius` pixels
+/// (or reach the image border there). `block_size` must be at least the
+/// kernel radius.
+pub(super) fn draw_plane<P: PlanarPattern, const C: usize>(
+    scene: &Scene<'_>,
+    plane: &PlaneInCamera,
+    pattern: &P,
+    rect: PixelRect,
+    block_size: usize,
+    target: &mut Target<'_>,
+    scratch: &mut BlockScratch,
+) {
+    let resolved = Resolved::<P, C>::new(pattern);
+    let corner_at = |i: usize, j: usize| -> Corner {
+        let [x, y] = scene.map.corner(i, j);
+        match plane.hit(x, y) {
+            Some((a, b)) => Corner { ab: [a, b], part: pattern.part(a, b) },
+            None => Corner { ab: [f64::NAN; 2], part: MISS },
+        }
+    };
+    let (w, h) = (rect.width(), rect.height());
+    let (nbx, nby) = (w.div_ceil(block_size), h.div_ceil(block_size));
+    let block_rect = |bx: usize, by: usize| PixelRect {
+        x0: rect.x0 + (bx * block_size).min(w),
+        y0: rect.y0 + (by * block_size).min(h),
+        x1: rect.x0 + ((bx + 1) * block_size).min(w),
+        y1: rect.y0 + ((by + 1) * block_size).min(h),
+    };
+
+    // Classify blocks from the parts at their corners.
+    scratch.coarse.clear();
+    for by in 0..=nby {
+        for bx in 0..=nbx {
+            let x = rect.x0 + (bx * block_size).min(w);
+            let y = rect.y0 + (by * block_size).min(h);
+            scratch.coarse.push(corner_at(x, y));
+        }
+    }
+    scratch.blocks.clear();
+    for by in 0..nby {
+        for bx in 0..nbx {
+            let k = by * (nbx + 1) + bx;
+            let corners = [k, k + 1, k + nbx + 1, k + nbx + 2].map(|k| scratch.coarse[k]);
+            let class = if scratch.exhaustive { None } else { resolved.uniform_class(corners) };
+            scratch.blocks.push(class.map_or(Block::Mixed, Block::Uniform));
+        }
+    }
+    // Active: mixed, or next to a block that may differ. Outside the grid is background.
+    let block_at = |bx: isize, by: isize, blocks: &[Block]| {
+        if bx < 0 || by < 0 || bx >= nbx as isize || by >= nby as isize {
+            Block::Uniform(0)
+        } else {
+            blocks[by as usize * nbx + bx as usize]
+        }
+    };
+    scratch.active.clear();
+    for by in 0..nby as isize {
+        for bx in 0..nbx as isize {
+            let me = block_at(bx, by, &scratch.blocks);
+            let calm = me != Block::Mixed
+                && (-1..=1).all(|dy| (-1..=1).all(|dx| block_at(bx + dx, by + dy, &scratch.blocks) == me));
+            scratch.active.push(!calm);
+        }
+    }
+
+    // Render what the blur of active blocks reads: active blocks and their neighbours.
+    scratch.patch.resize(w * h * C, 0.0);
+    for by in 0..nby {
+        for bx in 0..nbx {
+            let near_active = (by.saturating_sub(1)..(by + 2).min(nby))
+                .any(|y| (bx.saturating_sub(1)..(bx + 2).min(nbx)).any(|x| scratch.active[y * nbx + x]));
+            if near_active {
+                match scratch.blocks[by * nbx + bx] {
+                    Block::Uniform(class) => {
+                        fill_block(scene, rect, block_rect(bx, by), class, &resolved, scratch)
+                    }
+                    Block::Mixed => {
+                        render_block(scene, rect, block_rect(bx, by), &corner_at, &resolved, scratch)
+                    }
+                }
+            }
+        }
+    }
+
+    // Write: runs of active blocks blurred, calm coloured blocks as constants;
+    // calm background is already in the frame.
+    for by in 0..nby {
+        let mut bx = 0;
+        while bx < nbx {
+            let start = bx;
+            if scratch.active[by * nbx + bx] {
+                while bx < nbx && scratch.active[by * nbx + bx] {
+                    bx += 1;
+                }
+                let run = PixelRect { x1: block_rect(bx - 1, by).x1, ..block_rect(start, by) };
+                blur_span::<C>(scene.kernel, rect, run, scratch, target);
+            } else {
+                let me = scratch.blocks[by * nbx + bx];
+                while bx < nbx && !scratch.active[by * nbx + bx] && scratch.blocks[by * nbx + bx] == me {
+                    bx += 1;
+                }
+                if let Block::Uniform(class @ 1..) = me {
+                    let run = PixelRect { x1: block_rect(bx - 1, by).x1, ..block_rect(start, by) };
+                    write_constant(run, resolved.classes[class as usize], &mut scratch.fixed, target);
+                }
+            }
+        }
+    }
+}
+
+/// Fills a uniform block of the patch with its colour or the background.
+fn fill_block<P: PlanarPattern, const C: usize>(
+    scene: &Scene<'_>,
+    rect: PixelRect,
+    block: PixelRect,
+    class: u16,
+    resolved: &Resolved<'_, P, C>,
+    scratch: &mut BlockScratch,
+) {
+    let row_len = block.width() * C;
+    for v in block.y0..block.y1 {
+        let dst_start = ((v - rect.y0) * rect.width() + (block.x0 - rect.x0)) * C;
+        let dst = &mut scratch.patch[dst_start..dst_start + row_len];
+        if class == 0 {
+            let src_start = (v * scene.map.width() + block.x0) * C;
+            dst.copy_from_slice(&scene.background[src_start..src_start + row_len]);
+        } else {
+            let colour = &resolved.classes[class as usize];
+            dst.chunks_exact_mut(C).for_each(|px| px.copy_from_slice(colour));
+        }
+    }
+}
+
+/// Renders a mixed block pixel by pixel: exact plane coordinates at the pixel
+/// corners, the [`SAMPLES`] where a pixel is not uniform,
+/// their plane coordinates interpolated bilinearly between its corners (the
+/// pixel-to-plane map is smooth, so the error is far below a sample spacing).
+fn render_block<P: PlanarPattern, const C: usize>(
+    scene: &Scene<'_>,
+    rect: PixelRect,
+    block: PixelRect,
+    corner_at: &impl Fn(usize, usize) -> Corner,
+    resolved: &Resolved<'_, P, C>,
+    scratch: &mut BlockScratch,
+) {
+    let stride = block.width() + 1;
+    scratch.corners.clear();
+    for j in block.y0..=block.y1 {
+        for i in block.x0..=block.x1 {
+            scratch.corners.push(corner_at(i, j));
+        }
+    }
+    let inv_samples = 1.0 / SAMPLES.len() as f32;
+    let image_width = scene.map.width();
+    for v in block.y0..block.y1 {
+        let jj = v - block.y0;
+        let row_start = ((v - rect.y0) * rect.width() + (block.x0 - rect.x0)) * C;
+        let bg_start = (v * image_width + block.x0) * C;
+        for ii in 0..block.width() {
+            let k = jj * stride + ii;
+            let corners = [k, k + 1, k + stride, k + stride + 1].map(|k| scratch.corners[k]);
+            let bg: [f32; C] = std::array::from_fn(|c| scene.background[bg_start + ii * C + c]);
+            let dst = &mut scratch.patch[row_start + ii * C..row_start + (ii + 1) * C];
+            if let Some(class) = resolved.uniform_class(corners) {
+                dst.copy_from_slice(if class == 0 { &bg } else { &resolved.classes[class as usize] });
+                continue;
+            }
+            let [c00, c10, c01, c11] = corners.map(|c| c.ab);
+            let mut sum = [0.0f32; C];
+            for &(fu, fv) in &SAMPLES {
+                let left = [c00[0] + (c01[0] - c00[0]) * fv, c00[1] + (c01[1] - c00[1]) * fv];
+                let right = [c10[0] + (c11[0] - c10[0]) * fv, c10[1] + (c11[1] - c10[1]) * fv];
+                let (a, b) = (left[0] + (right[0] - left[0]) * fu, left[1] + (right[1] - left[1]) * fu);
+                // A corner that missed the plane gives NaN: the sample shows the background.
+                let class =
+                    if a.is_nan() || b.is_nan() { 0 } else { resolved.class(resolved.pattern.part(a, b)) };
+                let colour = if class == 0 { &bg } else { &resolved.classes[class as usize] };
+                sum.iter_mut().zip(colour).for_each(|(s, c)| *s += c);
+            }
+            dst.iter_mut().zip(sum).for_each(|(d, s)| *d = s * inv_samples);
+        }
+    }
+}
+
+/// Blurs a horizontal run of blocks of the patch (reading up to the kernel
+/// radius around it, clamped to `rect`) and writes it, noisy and quantised,
+/// into the frame.
+fn blur_span<const C: usize>(
+    kernel: &[f32],
+    rect: PixelRect,
+    span: PixelRect,
+    scratch: &mut BlockScratch,
+    target: &mut Target<'_>,
+) {
+    let r = kernel.len() / 2;
+    let (w, h) = (rect.width(), rect.height());
+    let (x0, x1) = (span.x0 - rect.x0, span.x1 - rect.x0);
+    let (y0, y1) = (span.y0 - rect.y0, span.y1 - rect.y0);
+    let row_len = (x1 - x0) * C;
+    // Horizontal pass over the span's columns, for its rows and r rows around.
+    let (hy0, hy1) = (y0.saturating_sub(r), (y1 + r).min(h));
+    scratch.horizontal.clear();
+    scratch.horizontal.resize((hy1 - hy0) * row_len, 0.0);
+    for y in hy0..hy1 {
+        let row = &scratch.patch[y * w * C..(y + 1) * w * C];
+        let out = &mut scratch.horizontal[(y - hy0) * row_len..(y - hy0 + 1) * row_len];
+        if x0 >= r && x1 + r <= w {
+            // Interior: one multiply-add per tap over the whole row of the span.
+            for (t, &k) in kernel.iter().enumerate() {
+                let src = &row[(x0 + t - r) * C..(x1 + t - r) * C];
+                out.iter_mut().zip(src).for_each(|(o, s)| *o += k * s);
+            }
+        } else {
+            for (t, &k) in kernel.iter().enumerate() {
+                for (x, o) in (x0..x1).zip(out.chunks_exact_mut(C)) {
+                    let xs = (x + t).saturating_sub(r).min(w - 1);
+                    o.iter_mut().zip(&row[xs * C..(xs + 1) * C]).for_each(|(o, s)| *o += k * s);
+                }
+            }
+        }
+    }
+    // Vertical pass, then fixed point, noise and quantisation into the frame.
+    scratch.fixed.resize(row_len, 0);
+    scratch.vertical.resize(row_len, 0.0);
+    for y in y0..y1 {
+        let acc = &mut scratch.vertical;
+        acc.iter_mut().for_each(|a| *a = 0.0);
+        for (t, &k) in kernel.iter().enumerate() {
+            let ys = (y + t).saturating_sub(r).clamp(hy0, hy1 - 1) - hy0;
+            let src = &scratch.horizontal[ys * row_len..(ys + 1) * row_len];
+            acc.iter_mut().zip(src).for_each(|(a, s)| *a += k * s);
+        }
+        scratch.fixed.iter_mut().zip(acc.iter()).for_each(|(f, &v)| *f = to_fixed(v));
+        let start = ((rect.y0 + y) * target.image_width + rect.x0 + x0) * C;
+        let range = start..start + row_len;
+        quantise(&scratch.fixed, &target.noise[range.clone()], &mut target.data[range]);
+    }
+}
+
+/// Writes a block of one colour, noisy and quantised, into the frame.
+fn write_constant<const C: usize>(
+    block: PixelRect,
+    colour: [f32; C],
+    fixed: &mut Vec<i16>,
+    target: &mut Target<'_>,
+) {
+    let row_len = block.width() * C;
+    fixed.clear();
+    for _ in 0..block.width() {
+        fixed.extend(colour.iter().map(|&v| to_fixed(v)));
+    }
+    for y in block.y0..block.y1 {
+        let start = (y * target.image_width + block.x0) * C;
+        let range = start..start + row_len;
+        quantise(fixed, &target.noise[range.clone()], &mut target.data[range]);
+    }
+}

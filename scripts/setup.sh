@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Installs what slidetrack needs on Debian or Ubuntu, only what is missing:
+#   - OpenCV 4 development files with the contrib modules (ArUco) and
+#     clang/libclang, which the opencv crate needs to generate its bindings;
+#   - a TrueType font (DejaVu) for the text of plots;
+#   - with --test: a Python virtual environment (target/pyenv) holding the
+#     official MCAP reader, used by the interoperability tests.
+# Runs apt-get through sudo only when not root.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(libopencv-dev libopencv-contrib-dev clang libclang-dev pkg-config fonts-dejavu-core)
+if [ "${1:-}" = "--test" ]; then
+  python3 -c 'import venv, ensurepip' 2>/dev/null || packages+=(python3-venv)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  if ! command -v apt-get >/dev/null; then
+    echo "setup: missing ${missing[*]} and no apt-get here; install them with your package manager" >&2
+    exit 1
+  fi
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  echo "setup: installing ${missing[*]}" >&2
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+if [ "${1:-}" = "--test" ]; then
+  if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap' 2>/dev/null; then
+    echo "setup: creating target/pyenv with the official mcap reader" >&2
+    mkdir -p target
+    python3 -m venv target/pyenv
+    target/pyenv/bin/python -m pip install -q mcap
+  fi
+fi

@@ -1,0 +1,123 @@
+//! `slidetrack bench`: collection speed on one core against the targets of
+//! the foundation issue (camera: 10x real time; no camera: 200x).
+
+use std::sync::atomic::AtomicBool;
+
+use anyhow::{Context, Result};
+use serde_json::json;
+use slidetrack_drivers::sim::ObjectConfig;
+
+use crate::cli::BenchArgs;
+use crate::rig_config::RigConfig;
+use crate::trial::{TrialSpec, run_sim_trial};
+
+/// Speed targets (multiples of real time).
+const CAMERA_TARGET: f64 = 10.0;
+const NO_CAMERA_TARGET: f64 = 200.0;
+
+struct Measurement {
+    label: &'static str,
+    target: f64,
+    wall_s: Vec<f64>,
+    session_s: f64,
+}
+
+impl Measurement {
+    fn median_s(&self) -> f64 {
+        let mut v = self.wall_s.clone();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+    }
+
+    fn speedup(&self) -> f64 {
+        self.session_s / self.median_s()
+    }
+}
+
+/// Pins this process (and the threads it starts, the recorder among them) to one CPU.
+fn pin_to_one_core() -> Result<usize> {
+    use nix::sched::{CpuSet, sched_getaffinity, sched_setaffinity};
+    use nix::unistd::Pid;
+    let allowed = sched_getaffinity(Pid::from_raw(0)).context("cannot read the CPU affinity")?;
+    let cpu = (0..CpuSet::count()).find(|&c| allowed.is_set(c).unwrap_or(false)).unwrap_or(0);
+    let mut one = CpuSet::new();
+    one.set(cpu).context("cannot build the CPU set")?;
+    sched_setaffinity(Pid::from_raw(0), &one).context("cannot pin to one CPU")?;
+    Ok(cpu)
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let cpu = pin_to_one_core()?;
+    slidetrack_calibration::use_one_thread();
+    let dir = tempfile_dir()?;
+    let rig = RigConfig::default();
+    let object = ObjectConfig::load("box")?;
+    let stop = AtomicBool::new(false);
+    let mut results = Vec::new();
+    for (label, camera, target) in
+        [("with camera + marker detection", true, CAMERA_TARGET), ("without camera", false, NO_CAMERA_TARGET)]
+    {
+        let mut m = Measurement { label, target, wall_s: Vec::new(), session_s: 0.0 };
+        for run in 0..args.runs.max(1) {
+            let spec = TrialSpec {
+                rig: &rig,
+                object: &object,
+                seed: 1,
+                trial: run as u32,
+                duration_s: args.duration,
+                camera,
+                realtime: false,
+                overwrite: true,
+                path: dir.join(format!("bench-{camera}-{run}.mcap")),
+            };
+            let report = run_sim_trial(&spec, &stop, &mut |_| {})?;
+            m.wall_s.push(report.wall_s);
+            m.session_s = report.outcome.end.as_secs_f64();
+            let _ = std::fs::remove_file(&spec.path);
+        }
+        results.push(m);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    if args.json {
+        let out: Vec<_> = results
+            .iter()
+            .map(|m| {
+                json!({
+                    "what": m.label,
+                    "session_s": m.session_s,
+                    "median_wall_s": m.median_s(),
+                    "runs_wall_s": m.wall_s,
+                    "times_real_time": m.speedup(),
+                    "target_times_real_time": m.target,
+                    "pass": m.speedup() >= m.target,
+                })
+            })
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&json!({"cpu": cpu, "collect": out}))?);
+        return Ok(());
+    }
+    println!(
+        "collect: box, {} s of sliding cycles, pinned to CPU {cpu} (one core, OpenCV single-threaded), median of {} runs",
+        args.duration,
+        args.runs.max(1)
+    );
+    for m in &results {
+        println!(
+            "  {:<32} {:>7.3} s for {:.1} s of session -> {:>6.1}x real time (target >= {:.0}x): {}",
+            m.label,
+            m.median_s(),
+            m.session_s,
+            m.speedup(),
+            m.target,
+            if m.speedup() >= m.target { "PASS" } else { "FAIL" }
+        );
+    }
+    Ok(())
+}
+
+fn tempfile_dir() -> Result<std::path::PathBuf> {
+    let dir = std::env::temp_dir().join(format!("slidetrack-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    Ok(dir)
+}

@@ -1,0 +1,83 @@
+//! `slidetrack collect`: controlled-sliding trials, one session file each.
+
+use std::sync::atomic::Ordering;
+
+use anyhow::{Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use slidetrack_drivers::sim::ObjectConfig;
+
+use crate::cli::{CollectArgs, RigKind};
+use crate::rig_config::RigConfig;
+use crate::trial::{TrialReport, TrialSpec, prepare_out_dir, run_sim_trial, session_file_name};
+
+/// Expected length of a trial beyond its cycles: zeroing, closing, ramp,
+/// settle and release (s), for the progress bar.
+const SETUP_S: f64 = 5.0;
+
+pub fn run(args: &CollectArgs, quiet: bool) -> Result<()> {
+    let reports = collect(args, quiet)?;
+    if reports.is_empty() {
+        bail!("no trial ran");
+    }
+    Ok(())
+}
+
+/// Runs the trials of `args`, printing one line per trial; returns their reports.
+pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
+    if args.rig == RigKind::Hw {
+        bail!(
+            "--rig hw needs hardware device backends (serial or CAN tactile sensors, a V4L2 camera, a CAN hand), \
+             which this version of slidetrack does not include yet; use --rig sim"
+        );
+    }
+    if !(args.duration.is_finite() && args.duration > 0.0) {
+        bail!("--duration must be a positive number of seconds, got {}", args.duration);
+    }
+    if args.trials == 0 {
+        bail!("--trials must be at least 1");
+    }
+    let object = ObjectConfig::load(&args.object)?;
+    let rig = RigConfig::load(args.config.as_deref())?;
+    prepare_out_dir(&args.out)?;
+    let stop = super::stop_flag();
+
+    let per_trial_ms = ((args.duration + SETUP_S) * 1e3) as u64;
+    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(per_trial_ms * u64::from(args.trials)) };
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% sim time, {elapsed} wall, eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let mut reports = Vec::new();
+    for (k, trial) in (args.first_trial..args.first_trial + args.trials).enumerate() {
+        let path = args.out.join(session_file_name(&object.name, args.seed, trial));
+        bar.set_message(format!("{} trial {}/{}", object.name, k + 1, args.trials));
+        let offset_ms = per_trial_ms * k as u64;
+        let spec = TrialSpec {
+            rig: &rig,
+            object: &object,
+            seed: args.seed,
+            trial,
+            duration_s: args.duration,
+            camera: !args.no_camera,
+            realtime: args.realtime,
+            overwrite: args.overwrite,
+            path,
+        };
+        let mut progress = |t: slidetrack_drivers::TimeNs| {
+            bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
+        };
+        let report = run_sim_trial(&spec, &stop, &mut progress)?;
+        bar.suspend(|| println!("{}", report.summary_line()));
+        if report.images_dropped > 0 {
+            tracing::warn!("{}: {} camera images dropped under back-pressure", report.path.display(), report.images_dropped);
+        }
+        reports.push(report);
+        if stop.load(Ordering::SeqCst) {
+            bar.finish_and_clear();
+            bail!("interrupted after {} trial(s); the sessions written so far are complete", reports.len());
+        }
+    }
+    bar.finish_and_clear();
+    Ok(reports)
+}

@@ -1,0 +1,28 @@
+//! `slidetrack objects`: the built-in objects of the simulated rig.
+
+use anyhow::Result;
+use slidetrack_drivers::sim::{BUILTIN_OBJECTS, ObjectConfig};
+
+pub fn run() -> Result<()> {
+    println!(
+        "{:<9} {:>8} {:>6} {:>6} {:>16} {:>8}  description",
+        "object", "mass kg", "mu_s", "mu_k", "grasp counts", "period"
+    );
+    for (name, _) in BUILTIN_OBJECTS {
+        let o = ObjectConfig::load(name)?;
+        let e = &o.experiment;
+        println!(
+            "{:<9} {:>8.3} {:>6.2} {:>6.2} {:>7.0}..{:<7.0} {:>6.1} s  {}",
+            o.name,
+            o.mass_kg,
+            o.friction.mu_static,
+            o.friction.mu_kinetic,
+            e.grasp_min_counts,
+            e.grasp_max_counts,
+            e.period_s,
+            o.description
+        );
+    }
+    println!("\nA path to an object .toml (same fields as drivers/objects/*.toml) works wherever a name does.");
+    Ok(())
+}

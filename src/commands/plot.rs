@@ -1,0 +1,118 @@
+//! `slidetrack plot`: pictures of a session.
+
+use anyhow::{Context, Result};
+use slidetrack_drivers::session::{
+    ArucoDetection, GraspControl, ReadOptions, SessionError, SimTruth, TactileZeroed, read_channel,
+};
+use slidetrack_drivers::{Finger, TimeNs};
+
+use crate::cli::{PlotArgs, PlotKind};
+use crate::plot::{PALETTE, Panel, Series, draw_stacked};
+
+pub fn run(args: &PlotArgs) -> Result<()> {
+    let opts = ReadOptions { recover: args.recover };
+    let panels = match args.what {
+        PlotKind::Grasp => grasp_panels(&args.file, opts)?,
+        PlotKind::Tactile => {
+            let mut p = tactile_panels(&args.file, opts)?;
+            p.push(position_panel(&args.file, opts)?);
+            p
+        }
+        PlotKind::Overview => {
+            let mut p = vec![grasp_overview(&args.file, opts)?];
+            p.extend(tactile_panels(&args.file, opts)?);
+            p.push(position_panel(&args.file, opts)?);
+            p
+        }
+    };
+    let name = args.file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    draw_stacked(&args.out, &name, &panels)?;
+    println!("{}", args.out.display());
+    Ok(())
+}
+
+fn secs(t: TimeNs) -> f64 {
+    t.as_secs_f64()
+}
+
+/// A channel that may be absent (a session without camera has no marker).
+fn optional<T>(r: Result<Vec<T>, SessionError>) -> Result<Vec<T>> {
+    match r {
+        Ok(v) => Ok(v),
+        Err(SessionError::NoSuchTopic { .. }) => Ok(Vec::new()),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// Desired vs achieved grasp per finger (Fig. 6.4), one panel per finger.
+fn grasp_panels(file: &std::path::Path, opts: ReadOptions) -> Result<Vec<Panel>> {
+    let grasp = read_channel::<GraspControl>(file, opts).context("the grasp plot needs /control/grasp")?;
+    Ok(Finger::ALL
+        .iter()
+        .map(|&f| Panel {
+            title: format!("{}: desired and achieved z", f.name()),
+            y_label: "z (counts)".into(),
+            series: vec![
+                Series::line("desired", PALETTE[0], grasp.iter().map(|(t, g)| (secs(*t), g.fingers[f].desired)).collect()),
+                Series::line(
+                    "achieved",
+                    PALETTE[1],
+                    grasp.iter().map(|(t, g)| (secs(*t), g.fingers[f].achieved)).collect(),
+                ),
+            ],
+        })
+        .collect())
+}
+
+fn grasp_overview(file: &std::path::Path, opts: ReadOptions) -> Result<Panel> {
+    let grasp = read_channel::<GraspControl>(file, opts).context("the overview needs /control/grasp")?;
+    let mut series = vec![Series::line(
+        "reference tau_g",
+        RGB_GREY,
+        grasp.iter().map(|(t, g)| (secs(*t), g.reference)).collect(),
+    )];
+    for (k, f) in Finger::ALL.into_iter().enumerate() {
+        series.push(Series::line(
+            format!("{} achieved", f.name()),
+            PALETTE[k],
+            grasp.iter().map(|(t, g)| (secs(*t), g.fingers[f].achieved)).collect(),
+        ));
+    }
+    Ok(Panel { title: "grasp strength (baseline-subtracted z)".into(), y_label: "counts".into(), series })
+}
+
+const RGB_GREY: plotters::style::RGBColor = plotters::style::RGBColor(110, 110, 110);
+
+/// Baseline-subtracted x, y, z per finger (Fig. 6.8).
+fn tactile_panels(file: &std::path::Path, opts: ReadOptions) -> Result<Vec<Panel>> {
+    let zeroed = read_channel::<TactileZeroed>(file, opts).context("the tactile plot needs /tactile/zeroed")?;
+    Ok(Finger::ALL
+        .iter()
+        .map(|&f| Panel {
+            title: format!("{} tactile channels", f.name()),
+            y_label: "counts - baseline".into(),
+            series: ["x", "y", "z"]
+                .iter()
+                .enumerate()
+                .map(|(a, name)| {
+                    let pts = zeroed.iter().map(|(t, z)| (secs(*t), z.counts[f].to_array()[a])).collect();
+                    Series::line(*name, PALETTE[a], pts)
+                })
+                .collect(),
+        })
+        .collect())
+}
+
+/// Marker position along the sliding axis, and the simulator's truth when recorded.
+fn position_panel(file: &std::path::Path, opts: ReadOptions) -> Result<Panel> {
+    let marker = optional(read_channel::<ArucoDetection>(file, opts))?;
+    let truth = optional(read_channel::<SimTruth>(file, opts))?;
+    let mut series = Vec::new();
+    if !truth.is_empty() {
+        series.push(Series::line("simulator truth", RGB_GREY, truth.iter().map(|(t, s)| (secs(*t), s.position * 100.0)).collect()));
+    }
+    let seen: Vec<_> =
+        marker.iter().filter_map(|(t, d)| d.position_on_axis_m.map(|p| (secs(*t), p * 100.0))).collect();
+    series.push(Series::dots("ArUco marker", PALETTE[3], seen));
+    Ok(Panel { title: "object position along the sliding axis".into(), y_label: "position (cm)".into(), series })
+}

@@ -1,0 +1,193 @@
+//! One trial on the simulated rig, recorded to one session file.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::{Instant, SystemTime};
+
+use anyhow::{Context, Result, bail};
+use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, marker_pattern};
+use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig, TrialOutcome, run_trial};
+use slidetrack_drivers::session::{Recorder, RecorderOptions, SessionMetadata};
+use slidetrack_drivers::sim::camera::SimCameraRenderer;
+use slidetrack_drivers::sim::{ObjectConfig, SimCamera, SimDevices, Stream, sliding_episodes, stream_seed};
+use slidetrack_drivers::{Camera, Clock, SimClock, TactileSource, TimeNs, WallClock};
+
+use crate::observer::{MarkerTracking, SessionObserver, TrialStats};
+use crate::rig_config::RigConfig;
+
+/// What to run.
+pub struct TrialSpec<'a> {
+    /// The rig.
+    pub rig: &'a RigConfig,
+    /// The object.
+    pub object: &'a ObjectConfig,
+    /// Seed of the simulated rig.
+    pub seed: u64,
+    /// Trial number.
+    pub trial: u32,
+    /// Duration of the sliding cycles (s).
+    pub duration_s: f64,
+    /// Render, detect and record the camera.
+    pub camera: bool,
+    /// Run on wall-clock time.
+    pub realtime: bool,
+    /// Replace an existing session file.
+    pub overwrite: bool,
+    /// Session file to write.
+    pub path: PathBuf,
+}
+
+/// How a trial went.
+pub struct TrialReport {
+    /// The session file.
+    pub path: PathBuf,
+    /// How the protocol ended.
+    pub outcome: TrialOutcome,
+    /// What was recorded.
+    pub stats: TrialStats,
+    /// Wall time the trial took (s).
+    pub wall_s: f64,
+    /// Images the recorder had to drop.
+    pub images_dropped: u64,
+}
+
+impl TrialReport {
+    /// Sliding episodes and travel (m) of the simulator's truth before the release.
+    pub fn sliding_summary(&self) -> (usize, f64) {
+        let end = self.stats.release_at.unwrap_or(TimeNs(u64::MAX));
+        let track: Vec<_> = self
+            .stats
+            .truth
+            .iter()
+            .filter(|(t, ..)| *t < end)
+            .map(|&(t, p, v)| (t.as_secs_f64(), p, v))
+            .collect();
+        let travel = track.last().map_or(0.0, |x| x.1);
+        (sliding_episodes(&track, 1e-3, 0.5, 5e-4).len(), travel)
+    }
+
+    /// One line for humans.
+    pub fn summary_line(&self) -> String {
+        let (episodes, travel) = self.sliding_summary();
+        let status = match &self.outcome.abort {
+            None if self.outcome.completed => "complete".to_string(),
+            None => "incomplete".to_string(),
+            Some(reason) => format!("ABORTED: {reason}"),
+        };
+        let camera = if self.stats.frames > 0 {
+            format!(", marker in {}/{} frames", self.stats.detections, self.stats.frames)
+        } else {
+            String::new()
+        };
+        format!(
+            "{}: {status}; {:.1} s, {} scans{camera}; {episodes} sliding episodes, travel {:.1} cm",
+            self.path.display(),
+            self.outcome.end.as_secs_f64(),
+            self.stats.scans,
+            travel * 100.0
+        )
+    }
+}
+
+/// The file name of a trial: `<object>-s<seed>-t<trial>.mcap`.
+pub fn session_file_name(object: &str, seed: u64, trial: u32) -> String {
+    format!("{object}-s{seed}-t{trial:03}.mcap")
+}
+
+fn rfc3339_now() -> String {
+    humantime::format_rfc3339_seconds(SystemTime::now()).to_string()
+}
+
+/// Runs one trial of the simulated rig and records it to `spec.path`.
+/// `progress` receives the session time of every scan; `stop` ends the trial
+/// early with a safe release.
+pub fn run_sim_trial(spec: &TrialSpec, stop: &AtomicBool, progress: &mut dyn FnMut(TimeNs)) -> Result<TrialReport> {
+    if spec.path.exists() && !spec.overwrite {
+        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
+    }
+    let started = Instant::now();
+    let clock: Arc<dyn Clock> =
+        if spec.realtime { Arc::new(WallClock::start()) } else { Arc::new(SimClock::new()) };
+    let object = spec.object;
+    let sim = SimDevices::new(&spec.rig.sim, object, spec.seed, spec.trial, clock.clone());
+    let tactile_info = sim.tactile.info();
+    let geometry = &spec.rig.geometry;
+
+    let (camera, tracking) = if spec.camera {
+        let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
+            .context("cannot make the marker for the simulated camera")?;
+        let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
+        let renderer = SimCameraRenderer::new(spec.rig.camera.clone(), object.appearance.clone(), marker, seed)
+            .context("cannot set up the simulated camera")?;
+        let camera = SimCamera::new(
+            sim.world.clone(),
+            renderer,
+            geometry.object_start_in_hand_m,
+            geometry.sliding_axis_in_hand,
+        )?;
+        let axis = SlidingAxis::new(camera.hand_from_camera(), geometry.sliding_axis_in_hand.into())?;
+        let tracking = MarkerTracking {
+            tracker: MarkerTracker::new(Dictionary::from_name(&spec.rig.marker.dictionary)?, spec.rig.marker.id)?,
+            marker_size_m: object.appearance.marker_size_m,
+            intrinsics: camera.intrinsics().clone(),
+            projector: axis.projector(),
+        };
+        (Some(Box::new(camera) as Box<dyn Camera>), Some(tracking))
+    } else {
+        (None, None)
+    };
+
+    let metadata = SessionMetadata {
+        software_version: env!("CARGO_PKG_VERSION").into(),
+        rig: "sim".into(),
+        rig_config: toml::to_string(spec.rig).context("cannot serialise the rig configuration")?,
+        object: object.name.clone(),
+        object_config: toml::to_string(object).context("cannot serialise the object")?,
+        trial: spec.trial.to_string(),
+        seed: spec.seed,
+        started_at: rfc3339_now(),
+    };
+    let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
+    let recorder = Recorder::create_with_options(&spec.path, metadata.to_map(), options)?;
+    let mut observer =
+        SessionObserver::new(recorder.logger(), &tactile_info, tracking, true, Box::new(|t| progress(t)))?;
+
+    let e = &object.experiment;
+    let mut protocol = Protocol::new(ProtocolConfig {
+        settings: spec.rig.protocol.clone(),
+        profile: GraspProfile {
+            max_counts: e.grasp_max_counts,
+            min_counts: e.grasp_min_counts,
+            period_s: e.period_s,
+            sharpness: e.sharpness,
+        },
+        travel_limit_m: e.travel_limit_m,
+        cycles_duration_s: spec.duration_s,
+    });
+    let mut rig = Rig {
+        tactile: Box::new(sim.tactile),
+        hand: Box::new(sim.hand),
+        camera,
+        clock,
+        truth: Some(Box::new(sim.truth)),
+    };
+    let outcome = run_trial(&mut rig, &mut protocol, &mut observer, stop);
+    let stats = observer.stats().clone();
+    drop(observer);
+    let images_dropped = recorder.logger().images_dropped();
+    let reason = outcome.abort.as_ref().map(|a| a.to_string());
+    recorder
+        .finish_with_outcome(outcome.completed, reason)
+        .with_context(|| format!("cannot finish {}", spec.path.display()))?;
+    Ok(TrialReport { path: spec.path.clone(), outcome, stats, wall_s: started.elapsed().as_secs_f64(), images_dropped })
+}
+
+/// Makes `dir` (and parents) and checks that a file can be written in it.
+pub fn prepare_out_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
+    let probe = dir.join(".slidetrack-write-test");
+    std::fs::write(&probe, b"").with_context(|| format!("output directory {} is not writable", dir.display()))?;
+    let _ = std::fs::remove_file(probe);
+    Ok(())
+}
