@@ -174,12 +174,27 @@ mod tests {
     #[test]
     fn collect_parses_the_documented_example() {
         let cli = Cli::try_parse_from([
-            "slidetrack", "collect", "--rig", "sim", "--object", "box", "--trials", "10", "--duration", "60",
-            "--seed", "1", "--out", "DIR",
+            "slidetrack",
+            "collect",
+            "--rig",
+            "sim",
+            "--object",
+            "box",
+            "--trials",
+            "10",
+            "--duration",
+            "60",
+            "--seed",
+            "1",
+            "--out",
+            "DIR",
         ])
         .unwrap();
         let Command::Collect(a) = cli.command else { panic!("not collect") };
-        assert_eq!((a.rig, a.object.as_str(), a.trials, a.duration, a.seed), (RigKind::Sim, "box", 10, 60.0, 1));
+        assert_eq!(
+            (a.rig, a.object.as_str(), a.trials, a.duration, a.seed),
+            (RigKind::Sim, "box", 10, 60.0, 1)
+        );
         assert_eq!(a.out, PathBuf::from("DIR"));
         assert!(!a.no_camera);
     }

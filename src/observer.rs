@@ -8,8 +8,9 @@ use nalgebra::Point3;
 use slidetrack_calibration::{MarkerTracker, SlidingProjector, marker_pose};
 use slidetrack_control::{Baseline, ControlRecord, ObserverError, ProtocolEvent, Tare, TrialObserver};
 use slidetrack_drivers::session::{
-    ArucoDetection, CameraCalibration, ChannelHandle, CompressedImage, FingerSetpoint, GraspControl, HandCommand,
-    Logger, PerFinger, Quaternion, SimTruth as TruthMsg, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz,
+    ArucoDetection, CameraCalibration, ChannelHandle, CompressedImage, FingerSetpoint, GraspControl,
+    HandCommand, Logger, PerFinger, Quaternion, SimTruth as TruthMsg, TactileRaw, TactileTare, TactileZeroed,
+    TaxelLayout, Xyz,
 };
 use slidetrack_drivers::session::{ChannelMessage, ProtocolEvent as EventMsg};
 use slidetrack_drivers::sim::SimTruth;
@@ -91,7 +92,13 @@ impl<'a> SessionObserver<'a> {
             aruco: camera.as_ref().map(|_| logger.register::<ArucoDetection>(none())).transpose()?,
         };
         if let (Some(c), Some(m)) = (&ch.calibration, &camera) {
-            logger.log_json(c, TimeNs::ZERO, TimeNs::ZERO, 0, &CameraCalibration::new(TimeNs::ZERO, "camera", &m.intrinsics))?;
+            logger.log_json(
+                c,
+                TimeNs::ZERO,
+                TimeNs::ZERO,
+                0,
+                &CameraCalibration::new(TimeNs::ZERO, "camera", &m.intrinsics),
+            )?;
         }
         Ok(SessionObserver { logger, ch, marker: camera, stats: TrialStats::default(), progress })
     }
@@ -158,7 +165,8 @@ impl TrialObserver for SessionObserver<'_> {
     }
 
     fn on_tare(&mut self, t: TimeNs, tare: &Tare) -> Result<(), ObserverError> {
-        let msg = TactileTare { samples: tare.scans, baseline: PerFinger::from_array(tare.baseline.map(xyz3)) };
+        let msg =
+            TactileTare { samples: tare.scans, baseline: PerFinger::from_array(tare.baseline.map(xyz3)) };
         self.log(&self.ch.tare, t, &msg)
     }
 
@@ -204,7 +212,8 @@ impl TrialObserver for SessionObserver<'_> {
             self.stats.release_at = Some(t);
         }
         tracing::info!(phase = e.phase.name(), "{}", e.message);
-        let msg = EventMsg { phase: e.phase.name().into(), message: e.message.clone(), abort: e.abort.is_some() };
+        let msg =
+            EventMsg { phase: e.phase.name().into(), message: e.message.clone(), abort: e.abort.is_some() };
         self.log(&self.ch.events, t, &msg)
     }
 }

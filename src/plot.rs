@@ -134,7 +134,12 @@ fn draw_panel(
         .x_label_area_size(35)
         .y_label_area_size(70)
         .build_cartesian_2d(x0..x1, y0..y1)?;
-    chart.configure_mesh().x_desc("time (s)").y_desc(&panel.y_label).light_line_style(WHITE.mix(0.0)).draw()?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc(&panel.y_label)
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
     for s in &panel.series {
         let colour = s.colour;
         if s.dots {

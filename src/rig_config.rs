@@ -62,8 +62,8 @@ impl RigConfig {
     /// Reads a rig configuration, or the defaults when `path` is `None`.
     pub fn load(path: Option<&Path>) -> Result<RigConfig> {
         let Some(path) = path else { return Ok(RigConfig::default()) };
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("cannot read rig config {}", path.display()))?;
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read rig config {}", path.display()))?;
         let cfg: RigConfig = slidetrack_drivers::parse_toml(&text, &path.display().to_string())
             .context("invalid rig config")?;
         cfg.validate().with_context(|| format!("invalid rig config {}", path.display()))?;
@@ -109,10 +109,22 @@ mod tests {
 
     #[test]
     fn a_partial_table_overrides_only_what_it_names() {
-        let cfg: RigConfig = toml::from_str("[sim]\ntactile_rate_hz = 200.0\n[protocol.pi]\nkp_volt_per_count = 1e-3\n").unwrap();
+        let cfg: RigConfig =
+            toml::from_str("[sim]\ntactile_rate_hz = 200.0\n[protocol.pi]\nkp_volt_per_count = 1e-3\n")
+                .unwrap();
         assert_eq!(cfg.sim.tactile_rate_hz, 200.0);
         assert_eq!(cfg.sim.physics_rate_hz, SimRigConfig::default().physics_rate_hz);
         assert_eq!(cfg.protocol.pi.kp_volt_per_count, 1e-3);
+    }
+
+    #[test]
+    fn the_readme_example_is_a_valid_rig_config() {
+        let readme = include_str!("../README.md");
+        let start = readme.find("```toml\n").expect("a toml block in the README") + 8;
+        let end = start + readme[start..].find("```").expect("closed block");
+        let cfg: RigConfig = slidetrack_drivers::parse_toml(&readme[start..end], "README.md").unwrap();
+        cfg.validate().unwrap();
+        assert_eq!(cfg.marker.dictionary, "DICT_6X6_250");
     }
 
     #[test]

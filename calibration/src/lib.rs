@@ -3,6 +3,7 @@
 
 pub mod aruco;
 pub mod axis;
+pub mod codec;
 pub mod error;
 pub mod pose;
 
@@ -13,6 +14,7 @@ pub use aruco::{
     CornerRefinement, Dictionary, MarkerDetection, MarkerDetector, MarkerTracker, PixelRoi, marker_pattern,
 };
 pub use axis::{SlidingAxis, SlidingProjector};
+pub use codec::encode_jpeg;
 pub use error::MarkerError;
 pub use pose::{MarkerPose, marker_pose};
 

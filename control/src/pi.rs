@@ -78,9 +78,8 @@ impl PiController {
         self.integral_v += c.ki_volt_per_count_s * error * dt_s;
         let raw = c.kp_volt_per_count * error + self.integral_v;
         let max_step = c.rate_limit_volt_per_s * dt_s;
-        let applied = raw
-            .clamp(self.output_v - max_step, self.output_v + max_step)
-            .clamp(-c.max_volts, c.max_volts);
+        let applied =
+            raw.clamp(self.output_v - max_step, self.output_v + max_step).clamp(-c.max_volts, c.max_volts);
         self.integral_v += (applied - raw) * (dt_s / c.tracking_time_s).min(1.0);
         self.output_v = applied;
         PiOutput { volts: applied, limited: (applied - raw).abs() > 1e-12 }

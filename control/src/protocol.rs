@@ -284,18 +284,13 @@ impl Protocol {
 
     fn check_saturation(&mut self, sample: &TactileSample) -> Option<AbortReason> {
         let margin = self.cfg.settings.safety.saturation_margin_counts;
-        for f in 0..3 {
-            for a in 0..3 {
+        for (f, finger) in Finger::ALL.into_iter().enumerate() {
+            for (a, axis) in AXES.into_iter().enumerate() {
                 let v = sample.raw[f][a];
                 let n = &mut self.saturated_scans[f][a];
                 *n = if v <= margin || v >= u16::MAX - margin { *n + 1 } else { 0 };
                 if *n >= self.cfg.settings.safety.saturation_scans {
-                    return Some(AbortReason::Saturated {
-                        finger: Finger::ALL[f],
-                        axis: AXES[a],
-                        counts: v,
-                        scans: *n,
-                    });
+                    return Some(AbortReason::Saturated { finger, axis, counts: v, scans: *n });
                 }
             }
         }
@@ -341,7 +336,8 @@ impl Protocol {
             Some(last) => t.secs_since(last) >= 0.999 / self.cfg.settings.control_rate_hz,
         };
         if due {
-            let dt_s = self.last_tick.map_or(1.0 / self.cfg.settings.control_rate_hz, |last| t.secs_since(last));
+            let dt_s =
+                self.last_tick.map_or(1.0 / self.cfg.settings.control_rate_hz, |last| t.secs_since(last));
             self.last_tick = Some(t);
             let z = [zeroed[0][2], zeroed[1][2], zeroed[2][2]];
             self.control_tick(t, z, dt_s, &mut out);
@@ -391,7 +387,8 @@ impl Protocol {
                     self.enter(Phase::Ramp, t, "every finger touches; raising the grasp".into(), out);
                 } else if self.in_phase_s(t) > c.close_timeout_s {
                     let fingers = Finger::ALL.into_iter().filter(|f| !self.touching[f.index()]).collect();
-                    out.events.extend(self.abort(AbortReason::NoContact { fingers, timeout_s: c.close_timeout_s }));
+                    out.events
+                        .extend(self.abort(AbortReason::NoContact { fingers, timeout_s: c.close_timeout_s }));
                     out.action = Some(HandAction::Release);
                     return;
                 }
@@ -403,7 +400,9 @@ impl Protocol {
                     out.action = Some(HandAction::Release);
                     return;
                 }
-                if matches!(self.phase, Phase::Settle | Phase::Cycles) && z.iter().all(|&v| v < 0.5 * threshold) {
+                if matches!(self.phase, Phase::Settle | Phase::Cycles)
+                    && z.iter().all(|&v| v < 0.5 * threshold)
+                {
                     out.events.extend(self.abort(AbortReason::ContactLost));
                     out.action = Some(HandAction::Release);
                     return;

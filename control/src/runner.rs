@@ -4,7 +4,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use slidetrack_drivers::sim::{SimTruth, TruthSource};
-use slidetrack_drivers::{Camera, Clock, DeviceError, Frame, HandActuator, TactileSample, TactileSource, TimeNs};
+use slidetrack_drivers::{
+    Camera, Clock, DeviceError, Frame, HandActuator, TactileSample, TactileSource, TimeNs,
+};
 
 use crate::protocol::{Baseline, ControlRecord, HandAction, Phase, Protocol, ProtocolEvent, Tare};
 use crate::safety::AbortReason;

@@ -17,11 +17,7 @@ pub struct SafetyConfig {
 
 impl Default for SafetyConfig {
     fn default() -> Self {
-        SafetyConfig {
-            saturation_margin_counts: 0,
-            saturation_scans: 3,
-            max_data_age_s: 0.050,
-        }
+        SafetyConfig { saturation_margin_counts: 0, saturation_scans: 3, max_data_age_s: 0.050 }
     }
 }
 

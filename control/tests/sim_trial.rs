@@ -5,8 +5,8 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use slidetrack_control::{
-    Baseline, ControlRecord, GraspProfile, ObserverError, Phase, Protocol, ProtocolConfig, ProtocolEvent, ProtocolSettings, Rig,
-    Tare, TrialObserver, TrialOutcome, run_trial,
+    Baseline, ControlRecord, GraspProfile, ObserverError, Phase, Protocol, ProtocolConfig, ProtocolEvent,
+    ProtocolSettings, Rig, Tare, TrialObserver, TrialOutcome, run_trial,
 };
 use slidetrack_drivers::sim::{ObjectConfig, SimDevices, SimRigConfig, SimTruth, sliding_episodes};
 use slidetrack_drivers::{Frame, SimClock, TactileSample, TimeNs};
@@ -97,7 +97,8 @@ fn summary_of(obj: &ObjectConfig, seed: u64, trial: u32) -> (usize, f64, bool) {
     let object = &obj.name;
     let (outcome, seen) = run_object(obj, seed, trial, 60.0);
     // Up to the release: after it the object falls out of the open hand.
-    let release = seen.events.iter().find(|e| e.phase == Phase::Release).map(|e| e.t).unwrap_or(TimeNs(u64::MAX));
+    let release =
+        seen.events.iter().find(|e| e.phase == Phase::Release).map(|e| e.t).unwrap_or(TimeNs(u64::MAX));
     let track: Vec<_> = seen
         .truth
         .iter()
@@ -148,16 +149,30 @@ fn dump_trial() {
     let object = std::env::var("SLIDETRACK_OBJECT").unwrap_or_else(|_| "box".into());
     let path = std::env::var("SLIDETRACK_DUMP").unwrap_or_else(|_| "/tmp/trial.csv".into());
     let (_, seen) = run(&object, 1, 0, 60.0);
-    let mut out = String::from("t,p,v,n_thumb,n_index,n_middle,f_thumb,f_index,f_middle,ref,z_thumb,z_index,z_middle,x_thumb,y_thumb\n");
+    let mut out = String::from(
+        "t,p,v,n_thumb,n_index,n_middle,f_thumb,f_index,f_middle,ref,z_thumb,z_index,z_middle,x_thumb,y_thumb\n",
+    );
     for (i, t) in seen.truth.iter().enumerate() {
         let ctrl = seen.control.iter().find(|(tc, _)| *tc == t.t).map(|(_, r)| r.clone());
         let z = seen.zeroed.iter().find(|(tz, _)| *tz == t.t).map(|(_, z)| *z).unwrap_or([[0.0; 3]; 3]);
         let _ = i;
         out += &format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            t.t.as_secs_f64(), t.position_m, t.velocity_mps, t.normal_n[0], t.normal_n[1], t.normal_n[2],
-            t.friction_n[0], t.friction_n[1], t.friction_n[2],
-            ctrl.as_ref().map_or(0.0, |c| c.reference_counts), z[0][2], z[1][2], z[2][2], z[0][0], z[0][1]
+            t.t.as_secs_f64(),
+            t.position_m,
+            t.velocity_mps,
+            t.normal_n[0],
+            t.normal_n[1],
+            t.normal_n[2],
+            t.friction_n[0],
+            t.friction_n[1],
+            t.friction_n[2],
+            ctrl.as_ref().map_or(0.0, |c| c.reference_counts),
+            z[0][2],
+            z[1][2],
+            z[2][2],
+            z[0][0],
+            z[0][1]
         );
     }
     std::fs::write(path, out).unwrap();
@@ -170,13 +185,27 @@ fn sweep_grasp_min() {
     let object = std::env::var("SLIDETRACK_OBJECT").unwrap_or_else(|_| "box".into());
     let mut base = ObjectConfig::load(&object).unwrap();
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
-    if let Some(v) = env("SIGMA2") { base.friction.viscous_s_per_m = v; }
-    if let Some(v) = env("MU_S") { base.friction.mu_static = v; }
-    if let Some(v) = env("MU_K") { base.friction.mu_kinetic = v; }
-    if let Some(v) = env("GMIN") { base.experiment.grasp_min_counts = v; }
-    if let Some(v) = env("GAIN_REL") { base.jitter.sensor_gain_rel = v; }
-    if let Some(v) = env("SHARP") { base.experiment.sharpness = v; }
-    if let Some(v) = env("PERIOD") { base.experiment.period_s = v; }
+    if let Some(v) = env("SIGMA2") {
+        base.friction.viscous_s_per_m = v;
+    }
+    if let Some(v) = env("MU_S") {
+        base.friction.mu_static = v;
+    }
+    if let Some(v) = env("MU_K") {
+        base.friction.mu_kinetic = v;
+    }
+    if let Some(v) = env("GMIN") {
+        base.experiment.grasp_min_counts = v;
+    }
+    if let Some(v) = env("GAIN_REL") {
+        base.jitter.sensor_gain_rel = v;
+    }
+    if let Some(v) = env("SHARP") {
+        base.experiment.sharpness = v;
+    }
+    if let Some(v) = env("PERIOD") {
+        base.experiment.period_s = v;
+    }
     let lo = base.experiment.grasp_min_counts;
     for k in 0..5 {
         let mut obj = base.clone();
@@ -184,7 +213,10 @@ fn sweep_grasp_min() {
         let runs: Vec<_> = (0..6).map(|trial| summary_of(&obj, 7, trial)).collect();
         let travel: Vec<f64> = runs.iter().map(|r| (r.1 * 1000.0).round() / 10.0).collect();
         let eps: Vec<usize> = runs.iter().map(|r| r.0).collect();
-        println!("{object} min {:.0}: travel cm {travel:?} episodes {eps:?}", obj.experiment.grasp_min_counts);
+        println!(
+            "{object} min {:.0}: travel cm {travel:?} episodes {eps:?}",
+            obj.experiment.grasp_min_counts
+        );
     }
 }
 

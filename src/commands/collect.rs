@@ -42,7 +42,8 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
     let stop = super::stop_flag();
 
     let per_trial_ms = ((args.duration + SETUP_S) * 1e3) as u64;
-    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(per_trial_ms * u64::from(args.trials)) };
+    let bar =
+        if quiet { ProgressBar::hidden() } else { ProgressBar::new(per_trial_ms * u64::from(args.trials)) };
     bar.set_style(
         ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% sim time, {elapsed} wall, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
@@ -70,7 +71,11 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
         let report = run_sim_trial(&spec, &stop, &mut progress)?;
         bar.suspend(|| println!("{}", report.summary_line()));
         if report.images_dropped > 0 {
-            tracing::warn!("{}: {} camera images dropped under back-pressure", report.path.display(), report.images_dropped);
+            tracing::warn!(
+                "{}: {} camera images dropped under back-pressure",
+                report.path.display(),
+                report.images_dropped
+            );
         }
         reports.push(report);
         if stop.load(Ordering::SeqCst) {

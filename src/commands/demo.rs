@@ -35,7 +35,8 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
                     .collect::<Vec<_>>()
                     .join(", ")
             );
-            let stem = report.path.file_stem().map_or_else(|| object.into(), |s| s.to_string_lossy().into_owned());
+            let stem =
+                report.path.file_stem().map_or_else(|| object.into(), |s| s.to_string_lossy().into_owned());
             for (kind, suffix) in [(PlotKind::Overview, "overview"), (PlotKind::Grasp, "grasp")] {
                 let out = args.out.join(format!("{stem}-{suffix}.png"));
                 super::plot::run(&PlotArgs { file: report.path.clone(), out, what: kind, recover: false })?;
@@ -44,6 +45,8 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
         println!();
     }
     println!("sessions and plots are in {}", args.out.display());
-    println!("next: `slidetrack info FILE`, `slidetrack export FILE --channel /tactile/raw`, or open a .mcap in Foxglove");
+    println!(
+        "next: `slidetrack info FILE`, `slidetrack export FILE --channel /tactile/raw`, or open a .mcap in Foxglove"
+    );
     Ok(())
 }

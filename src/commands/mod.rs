@@ -41,7 +41,9 @@ pub fn stop_flag() -> Arc<AtomicBool> {
                 // Second Ctrl-C: the user insists.
                 std::process::exit(130);
             }
-            eprintln!("\nstopping: releasing the hand and closing the session (Ctrl-C again to quit at once)");
+            eprintln!(
+                "\nstopping: releasing the hand and closing the session (Ctrl-C again to quit at once)"
+            );
         }) {
             tracing::warn!("cannot install the Ctrl-C handler: {e}");
         }

@@ -23,6 +23,8 @@ pub fn run() -> Result<()> {
             o.description
         );
     }
-    println!("\nA path to an object .toml (same fields as drivers/objects/*.toml) works wherever a name does.");
+    println!(
+        "\nA path to an object .toml (same fields as drivers/objects/*.toml) works wherever a name does."
+    );
     Ok(())
 }

@@ -2,7 +2,8 @@
 
 use anyhow::{Context, Result};
 use slidetrack_drivers::session::{
-    ArucoDetection, GraspControl, ReadOptions, SessionError, SimTruth, TactileZeroed, read_channel,
+    ArucoDetection, GraspControl, ProtocolEvent, ReadOptions, SessionError, SimTruth, TactileZeroed,
+    read_channel,
 };
 use slidetrack_drivers::{Finger, TimeNs};
 
@@ -53,7 +54,11 @@ fn grasp_panels(file: &std::path::Path, opts: ReadOptions) -> Result<Vec<Panel>>
             title: format!("{}: desired and achieved z", f.name()),
             y_label: "z (counts)".into(),
             series: vec![
-                Series::line("desired", PALETTE[0], grasp.iter().map(|(t, g)| (secs(*t), g.fingers[f].desired)).collect()),
+                Series::line(
+                    "desired",
+                    PALETTE[0],
+                    grasp.iter().map(|(t, g)| (secs(*t), g.fingers[f].desired)).collect(),
+                ),
                 Series::line(
                     "achieved",
                     PALETTE[1],
@@ -85,7 +90,8 @@ const RGB_GREY: plotters::style::RGBColor = plotters::style::RGBColor(110, 110, 
 
 /// Baseline-subtracted x, y, z per finger (Fig. 6.8).
 fn tactile_panels(file: &std::path::Path, opts: ReadOptions) -> Result<Vec<Panel>> {
-    let zeroed = read_channel::<TactileZeroed>(file, opts).context("the tactile plot needs /tactile/zeroed")?;
+    let zeroed =
+        read_channel::<TactileZeroed>(file, opts).context("the tactile plot needs /tactile/zeroed")?;
     Ok(Finger::ALL
         .iter()
         .map(|&f| Panel {
@@ -103,16 +109,35 @@ fn tactile_panels(file: &std::path::Path, opts: ReadOptions) -> Result<Vec<Panel
         .collect())
 }
 
-/// Marker position along the sliding axis, and the simulator's truth when recorded.
+/// Session time at which the hand opened, if it did: after it the object
+/// falls out of the hand, which is not what the plots are about.
+fn release_time(file: &std::path::Path, opts: ReadOptions) -> Result<TimeNs> {
+    let events = optional(read_channel::<ProtocolEvent>(file, opts))?;
+    Ok(events.iter().find(|(_, e)| e.phase == "release" || e.abort).map_or(TimeNs(u64::MAX), |(t, _)| *t))
+}
+
+/// Marker position along the sliding axis, and the simulator's truth when
+/// recorded, up to the release.
 fn position_panel(file: &std::path::Path, opts: ReadOptions) -> Result<Panel> {
-    let marker = optional(read_channel::<ArucoDetection>(file, opts))?;
-    let truth = optional(read_channel::<SimTruth>(file, opts))?;
+    let end = release_time(file, opts)?;
+    let mut marker = optional(read_channel::<ArucoDetection>(file, opts))?;
+    let mut truth = optional(read_channel::<SimTruth>(file, opts))?;
+    marker.retain(|(t, _)| *t <= end);
+    truth.retain(|(t, _)| *t <= end);
     let mut series = Vec::new();
     if !truth.is_empty() {
-        series.push(Series::line("simulator truth", RGB_GREY, truth.iter().map(|(t, s)| (secs(*t), s.position * 100.0)).collect()));
+        series.push(Series::line(
+            "simulator truth",
+            RGB_GREY,
+            truth.iter().map(|(t, s)| (secs(*t), s.position * 100.0)).collect(),
+        ));
     }
     let seen: Vec<_> =
         marker.iter().filter_map(|(t, d)| d.position_on_axis_m.map(|p| (secs(*t), p * 100.0))).collect();
     series.push(Series::dots("ArUco marker", PALETTE[3], seen));
-    Ok(Panel { title: "object position along the sliding axis".into(), y_label: "position (cm)".into(), series })
+    Ok(Panel {
+        title: "object position along the sliding axis".into(),
+        y_label: "position (cm)".into(),
+        series,
+    })
 }

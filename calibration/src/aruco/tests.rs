@@ -165,3 +165,10 @@ fn a_detection_in_a_region_matches_the_whole_frame_detection() {
         assert!((a[0] - b[0]).abs() < 0.05 && (a[1] - b[1]).abs() < 0.05, "{a:?} vs {b:?}");
     }
 }
+
+#[test]
+fn detectors_can_move_to_a_worker_thread() {
+    fn assert_send<T: Send>() {}
+    assert_send::<MarkerDetector>();
+    assert_send::<MarkerTracker>();
+}

@@ -1,14 +1,15 @@
 //! Detection in a region of interest around the previous detection.
 //!
-//! Why: on one core (OpenCV limited to one thread), detecting the marker in a
-//! whole 640x480 simulated frame takes about 4.5 ms (median, release build),
-//! more than the 3 ms the simulator may spend on a whole camera frame
-//! (render, JPEG, detection, pose). Searching a window of the previous marker
-//! grown by 35 % of its side (about 170 x 170 px for a 100 px marker) with one
-//! adaptive-threshold window sized from the marker's cells (instead of
-//! OpenCV's three) and small contours ignored takes about 0.17 ms with the
-//! same sub-pixel corners. Measured with `cargo bench -p
-//! slidetrack-calibration --bench camera_frame`.
+//! Why (measured with `cargo bench -p slidetrack-calibration --bench
+//! camera_frame`, release build, OpenCV on one thread, 2-core Xeon under load):
+//! detecting the marker in a whole 640x480 simulated frame takes 4.2 to 4.9 ms
+//! (median), more than the 3 ms the simulator may spend on a whole camera
+//! frame (render, JPEG, detection, pose). Searching the previous marker's
+//! bounding box grown by 35 % of its side (about 155 x 155 px for a 90 px
+//! marker), with one adaptive-threshold window sized from the marker's cells
+//! instead of OpenCV's three and contours shorter than half the marker's
+//! perimeter ignored, takes 0.19 to 0.20 ms with the same sub-pixel corners.
+//! The whole frame is searched again only when the marker is lost.
 
 use slidetrack_drivers::Image;
 

@@ -1,15 +1,20 @@
 //! The simulated camera: renders the ArUco marker on the object.
 //!
 //! A pinhole camera with plumb-bob distortion looks at the object held in the
-//! hand. Every output pixel is lit by the ray through its (distorted) pixel
-//! position: the ray is undistorted once at start-up ([`CameraIntrinsics::undistort_pixel`]
-//! on a grid of pixel corners), then intersected per frame with the plane of
-//! the object's marker face and, once for the whole run, with a static
-//! textured background plane behind the object. Marker cell edges are
-//! anti-aliased by 4x4 supersampling of the pixels whose corners see
-//! different cells; the image is then blurred (Gaussian), Gaussian noise is
-//! added and the result quantised to 8 bits. Only the object's bounding box is
-//! re-rendered per frame; the blurred background is kept from start-up.
+//! hand. Every output pixel is lit by the rays through its (distorted) pixel
+//! footprint: the rays at the pixel corners are undistorted once at start-up
+//! ([`CameraIntrinsics::undistort_pixel`](crate::CameraIntrinsics::undistort_pixel)),
+//! then intersected with the plane of the object's marker face (per frame)
+//! and with a static textured background plane behind the object (once).
+//! Pixels that straddle a colour edge (marker cells, sticker, face outline)
+//! average 8 samples on an n-rooks pattern; the image is then blurred
+//! (Gaussian), Gaussian noise is added and the result quantised to 8 bits.
+//!
+//! Per frame only the neighbourhood of the object's colour edges is rendered
+//! pixel by pixel and blurred: its bounding box is cut into 4 px blocks, a
+//! block whose corners show one colour is filled with it, and the blurred
+//! background computed at start-up is left as it is (see `blocks.rs`; a test
+//! checks the result against rendering every pixel).
 //!
 //! Frames, all right-handed:
 //! - `hand`: origin at the palm, x forward towards the object, y left, z up.

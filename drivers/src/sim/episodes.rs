@@ -70,8 +70,7 @@ mod tests {
         let mut p = 0.0;
         for k in 0..800 {
             let t = k as f64 * 0.01;
-            let v = if (1.0..2.0).contains(&t) || (2.2..3.0).contains(&t) || (5.0..6.0).contains(&t)
-            {
+            let v = if (1.0..2.0).contains(&t) || (2.2..3.0).contains(&t) || (5.0..6.0).contains(&t) {
                 0.01
             } else {
                 0.0

@@ -110,10 +110,7 @@ mod tests {
     #[test]
     fn free_finger_closes_at_force_over_damping() {
         let cfg = FingerConfig::default();
-        let mut f = FingerState {
-            actuation_n: 1.0,
-            ..FingerState::default()
-        };
+        let mut f = FingerState { actuation_n: 1.0, ..FingerState::default() };
         f.step(&cfg, 2.0, 0.0, false, 1e-3);
         assert!((f.position_m - 1.0 / cfg.damping_n_s_per_m * 1e-3).abs() < 1e-9);
     }

@@ -68,10 +68,7 @@ impl LuGreContact {
 
     /// Friction force (N) opposing a positive slip, for normal force `normal_n`.
     pub fn force(&self, p: &LuGreParams, v_mps: f64, normal_n: f64) -> f64 {
-        normal_n
-            * (p.sigma0_per_m * self.z_m
-                + p.sigma1_s_per_m * self.z_rate_mps
-                + p.sigma2_s_per_m * v_mps)
+        normal_n * (p.sigma0_per_m * self.z_m + p.sigma1_s_per_m * self.z_rate_mps + p.sigma2_s_per_m * v_mps)
     }
 }
 
@@ -100,11 +97,7 @@ mod tests {
         }
         // Closed form of the steady state: F = F_n (g(v) + sigma2 v).
         let expected = 2.0 * (p.stribeck(v, 1.0) + p.sigma2_s_per_m * v);
-        assert!(
-            (c.force(&p, v, 2.0) - expected).abs() < 1e-9,
-            "{}",
-            c.force(&p, v, 2.0)
-        );
+        assert!((c.force(&p, v, 2.0) - expected).abs() < 1e-9, "{}", c.force(&p, v, 2.0));
     }
 
     #[test]
@@ -117,12 +110,7 @@ mod tests {
             c.step(&p, v, p.stribeck(v, 1.0), dt);
         }
         let x = v * 10.0 * dt;
-        assert!(
-            (c.z_m - x).abs() / x < 1e-3,
-            "z {} vs displacement {}",
-            c.z_m,
-            x
-        );
+        assert!((c.z_m - x).abs() / x < 1e-3, "z {} vs displacement {}", c.z_m, x);
     }
 
     #[test]

@@ -13,14 +13,13 @@ mod surface;
 mod tactile_model;
 mod world;
 
-pub use camera_device::SimCamera;
+pub use camera_device::{FrameEncoder, SimCamera};
 pub use config::SimRigConfig;
 pub use episodes::{Episode, sliding_episodes};
 pub use finger::{FingerConfig, FingerState};
 pub use friction::{LuGreContact, LuGreParams};
 pub use object::{
-    BUILTIN_OBJECTS, ExperimentSettings, FrictionConfig, ObjectConfig,
-    ObjectGeometry, TrialJitter,
+    BUILTIN_OBJECTS, ExperimentSettings, FrictionConfig, ObjectConfig, ObjectGeometry, TrialJitter,
 };
 pub use rig::{SharedWorld, SimDevices, SimHand, SimTactile, SimTruthTap, TruthSource};
 pub use surface::{SurfaceConfig, SurfaceProfile};

@@ -142,11 +142,7 @@ pub struct TrialJitter {
 
 impl Default for TrialJitter {
     fn default() -> Self {
-        TrialJitter {
-            mass_rel: 0.0,
-            friction_rel: 0.0,
-            sensor_gain_rel: 0.0,
-        }
+        TrialJitter { mass_rel: 0.0, friction_rel: 0.0, sensor_gain_rel: 0.0 }
     }
 }
 
@@ -182,19 +178,13 @@ impl ObjectConfig {
     }
 
     fn validate(&self, origin: &str) -> Result<(), SimError> {
-        let bad = |detail: String| SimError::BadConfig {
-            origin: origin.to_string(),
-            detail,
-        };
+        let bad = |detail: String| SimError::BadConfig { origin: origin.to_string(), detail };
         let f = &self.friction;
         let positive = [
             ("mass_kg", self.mass_kg),
             ("friction.mu_kinetic", f.mu_kinetic),
             ("friction.stribeck_velocity_mps", f.stribeck_velocity_mps),
-            (
-                "friction.bristle_stiffness_per_m",
-                f.bristle_stiffness_per_m,
-            ),
+            ("friction.bristle_stiffness_per_m", f.bristle_stiffness_per_m),
             ("geometry.width_m", self.geometry.width_m),
             ("geometry.slide_range_m", self.geometry.slide_range_m),
             ("experiment.period_s", self.experiment.period_s),
@@ -215,11 +205,8 @@ impl ObjectConfig {
         if f.bristle_damping_s_per_m < 0.0 || f.viscous_s_per_m < 0.0 {
             return Err(bad("friction damping terms must not be negative".into()));
         }
-        if f.profile.windows(2).any(|w| w[1][0] <= w[0][0]) || f.profile.iter().any(|p| p[1] <= 0.0)
-        {
-            return Err(bad(
-                "friction.profile needs increasing positions and positive factors".into(),
-            ));
+        if f.profile.windows(2).any(|w| w[1][0] <= w[0][0]) || f.profile.iter().any(|p| p[1] <= 0.0) {
+            return Err(bad("friction.profile needs increasing positions and positive factors".into()));
         }
         let e = &self.experiment;
         if !(e.grasp_min_counts > 0.0 && e.grasp_max_counts > e.grasp_min_counts) {
@@ -247,24 +234,15 @@ mod tests {
     #[test]
     fn unknown_object_lists_the_known_ones() {
         let e = ObjectConfig::load("teapot").unwrap_err().to_string();
-        assert!(
-            e.contains("teapot") && e.contains("box") && e.contains("mustard"),
-            "{e}"
-        );
+        assert!(e.contains("teapot") && e.contains("box") && e.contains("mustard"), "{e}");
     }
 
     #[test]
     fn malformed_toml_names_its_origin() {
-        let e = ObjectConfig::from_toml("name = \"x\"\nmass_kg = ", "my.toml")
-            .unwrap_err()
-            .to_string();
+        let e = ObjectConfig::from_toml("name = \"x\"\nmass_kg = ", "my.toml").unwrap_err().to_string();
         assert!(e.contains("my.toml"), "{e}");
-        let text = BUILTIN_OBJECTS[0]
-            .1
-            .replace("mass_kg = 0.080", "mass_kg = -1.0");
-        let e = ObjectConfig::from_toml(&text, "neg.toml")
-            .unwrap_err()
-            .to_string();
+        let text = BUILTIN_OBJECTS[0].1.replace("mass_kg = 0.080", "mass_kg = -1.0");
+        let e = ObjectConfig::from_toml(&text, "neg.toml").unwrap_err().to_string();
         assert!(e.contains("mass_kg"), "{e}");
     }
 
@@ -275,12 +253,6 @@ mod tests {
         assert_eq!(f.profile_factor(-1.0), 1.0);
         assert!((f.profile_factor(0.0075) - 0.95).abs() < 1e-12);
         assert_eq!(f.profile_factor(5.0), 1.0);
-        assert_eq!(
-            ObjectConfig::load("box")
-                .unwrap()
-                .friction
-                .profile_factor(0.03),
-            1.0
-        );
+        assert_eq!(ObjectConfig::load("box").unwrap().friction.profile_factor(0.03), 1.0);
     }
 }

@@ -7,8 +7,8 @@ use super::config::SimRigConfig;
 use super::object::ObjectConfig;
 use super::world::{SimTruth, SimWorld};
 use crate::{
-    Clock, DeviceError, ErrorKind, FingerVolts, HandActuator, TactileInfo, TactileSample,
-    TactileSource, TimeNs, saturate,
+    Clock, DeviceError, ErrorKind, FingerVolts, HandActuator, TactileInfo, TactileSample, TactileSource,
+    TimeNs, saturate,
 };
 
 /// A source of the simulator's own truth (absent on the real rig).
@@ -22,11 +22,7 @@ pub type SharedWorld = Arc<Mutex<SimWorld>>;
 
 fn lock<'a>(world: &'a SharedWorld, device: &str) -> Result<MutexGuard<'a, SimWorld>, DeviceError> {
     world.lock().map_err(|_| {
-        DeviceError::new(
-            ErrorKind::Fault,
-            device,
-            "simulation state poisoned by an earlier panic",
-        )
+        DeviceError::new(ErrorKind::Fault, device, "simulation state poisoned by an earlier panic")
     })
 }
 
@@ -101,10 +97,7 @@ impl TactileSource for SimTactile {
     }
 
     fn info(&self) -> TactileInfo {
-        TactileInfo {
-            device: "sim".into(),
-            rate_hz: self.rate_hz,
-        }
+        TactileInfo { device: "sim".into(), rate_hz: self.rate_hz }
     }
 }
 

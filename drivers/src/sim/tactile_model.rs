@@ -116,9 +116,8 @@ impl TactileModule {
                 }
             }
         }
-        let gains = Matrix3::from_diagonal(&Vector3::from_fn(|_, _| {
-            1.0 + rng.random_range(-gain_rel..=gain_rel)
-        }));
+        let gains =
+            Matrix3::from_diagonal(&Vector3::from_fn(|_, _| 1.0 + rng.random_range(-gain_rel..=gain_rel)));
         let baseline = Vector3::from_fn(|i, _| {
             let [lo, hi] = cfg.baseline_counts[i];
             rng.random_range(lo..=hi).round()
@@ -166,8 +165,7 @@ impl TactileModule {
             self.drift[i] = self.drift[i] * decay + drift_kick * n;
             // Vibration: coloured noise (first-order, ~half a sample of memory).
             let n: f64 = StandardNormal.sample(rng);
-            self.vibration[i] =
-                0.5 * self.vibration[i] + 0.866 * cfg.vibration_std_counts * level * n;
+            self.vibration[i] = 0.5 * self.vibration[i] + 0.866 * cfg.vibration_std_counts * level * n;
             let white: f64 = StandardNormal.sample(rng);
             let mut v = self.baseline[i]
                 + signal[i]
@@ -214,16 +212,10 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let mut m = TactileModule::draw(&cfg, 0, 0.0, &mut rng);
         let b = m.baseline();
-        let d = ContactDeformation {
-            indentation_m: 0.0005,
-            ..Default::default()
-        };
+        let d = ContactDeformation { indentation_m: 0.0005, ..Default::default() };
         let raw = m.sample(&cfg, &d, 0.0, 0.01, &mut rng);
         let expected = 1000.0 * ((2.0f64 / 1.5).powi(3) - 1.0);
-        assert!(
-            (raw[2] as f64 - b[2] - expected).abs() <= 0.5,
-            "{raw:?} {b:?}"
-        );
+        assert!((raw[2] as f64 - b[2] - expected).abs() <= 0.5, "{raw:?} {b:?}");
     }
 
     #[test]
@@ -234,10 +226,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(2);
         let mut m = TactileModule::draw(&cfg, 1, 0.0, &mut rng);
         let b = m.baseline();
-        let d = ContactDeformation {
-            shear_m: 1e-4,
-            ..Default::default()
-        };
+        let d = ContactDeformation { shear_m: 1e-4, ..Default::default() };
         let raw = m.sample(&cfg, &d, 0.0, 0.01, &mut rng);
         let (x, y) = (raw[0] as f64 - b[0], raw[1] as f64 - b[1]);
         let s = 1.6e6 * 1e-4;
@@ -251,10 +240,7 @@ mod tests {
         cfg.baseline_counts = [[65000.0, 65000.0]; 3];
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let mut m = TactileModule::draw(&cfg, 2, 0.0, &mut rng);
-        let d = ContactDeformation {
-            indentation_m: 0.0015,
-            ..Default::default()
-        };
+        let d = ContactDeformation { indentation_m: 0.0015, ..Default::default() };
         assert_eq!(m.sample(&cfg, &d, 0.0, 0.01, &mut rng)[2], u16::MAX);
     }
 }

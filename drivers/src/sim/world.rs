@@ -100,13 +100,7 @@ impl SimWorld {
     pub fn new(cfg: &SimRigConfig, object: &ObjectConfig, seed: u64, trial: u32) -> SimWorld {
         let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, trial, Stream::Trial));
         let j = &object.jitter;
-        let mut jitter = |rel: f64| {
-            1.0 + if rel > 0.0 {
-                rng.random_range(-rel..=rel)
-            } else {
-                0.0
-            }
-        };
+        let mut jitter = |rel: f64| 1.0 + if rel > 0.0 { rng.random_range(-rel..=rel) } else { 0.0 };
         let mass_kg = object.mass_kg * jitter(j.mass_rel);
         let lugre = LuGreParams::from_config(&object.friction, jitter(j.friction_rel));
         let modules = [0, 1, 2].map(|f| TactileModule::draw(&cfg.tactile, f, j.sensor_gain_rel, &mut rng));
@@ -221,9 +215,8 @@ impl SimWorld {
         let mut force_explicit = 0.0;
         let mut damping = 0.0;
         for (c, &n) in self.contacts.iter().zip(&normal) {
-            force_explicit += n
-                * (p.sigma0_per_m * c.z_m
-                    - p.sigma1_s_per_m * p.sigma0_per_m * v.abs() * c.z_m / gv);
+            force_explicit +=
+                n * (p.sigma0_per_m * c.z_m - p.sigma1_s_per_m * p.sigma0_per_m * v.abs() * c.z_m / gv);
             damping += n * (p.sigma1_s_per_m + p.sigma2_s_per_m);
         }
         let m = self.mass_kg;
@@ -274,7 +267,7 @@ impl SimWorld {
         self.last_scan_ns = self.t_ns;
         let t_s = self.t_ns as f64 * 1e-9;
         let mut raw = [[0u16; 3]; 3];
-        for f in 0..3 {
+        for (f, counts) in raw.iter_mut().enumerate() {
             // On a sloped patch of texture the contact force leans along the
             // sliding axis and shears the pad with it.
             let (_, slope) = self.surfaces[f].height_and_slope(self.position_m);
@@ -282,13 +275,9 @@ impl SimWorld {
             let deformation = ContactDeformation {
                 indentation_m: self.fingers[f].indentation_m,
                 shear_m: tangential_n / self.cfg.finger(f).pad_shear_stiffness_n_per_m,
-                slip_speed_mps: if self.supported {
-                    0.0
-                } else {
-                    self.velocity_mps
-                },
+                slip_speed_mps: if self.supported { 0.0 } else { self.velocity_mps },
             };
-            raw[f] = self.modules[f].sample(
+            *counts = self.modules[f].sample(
                 &self.cfg.tactile,
                 &deformation,
                 t_s,

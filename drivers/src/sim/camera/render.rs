@@ -50,7 +50,7 @@ const MIN_BLOCK_PX: usize = 4;
 impl SimCameraRenderer {
     /// Builds the renderer: validates the inputs, inverts the distortion on
     /// the pixel grid, renders and blurs the background and draws the noise
-    /// table from `seed`. Takes tens of milliseconds (release build).
+    /// table from `seed`. Takes about 0.15 s at 640x480 (release build).
     pub fn new(
         config: SimCameraConfig,
         appearance: ObjectAppearance,

@@ -248,3 +248,9 @@ fn the_block_renderer_matches_rendering_every_pixel() {
         }
     }
 }
+
+#[test]
+fn the_renderer_can_move_to_the_rig_thread() {
+    fn assert_send<T: Send>() {}
+    assert_send::<SimCameraRenderer>();
+}

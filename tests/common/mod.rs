@@ -1,0 +1,58 @@
+//! Helpers shared by the end-to-end tests: run the CLI as a process.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The `slidetrack` binary under test.
+pub fn slidetrack() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_slidetrack"))
+}
+
+/// Runs `slidetrack ARGS` and returns its output.
+pub fn run(args: &[&str]) -> Output {
+    slidetrack().args(args).output().expect("slidetrack runs")
+}
+
+/// Runs `slidetrack ARGS`, panicking with its stderr unless it succeeds.
+pub fn ok(args: &[&str]) -> String {
+    let out = run(args);
+    assert!(out.status.success(), "slidetrack {args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("utf-8 output")
+}
+
+/// Runs `slidetrack ARGS` expecting a clean failure: exit code 1 and a single
+/// `error: ...` line on stderr, no panic. Returns that line.
+pub fn fails(args: &[&str]) -> String {
+    let out = run(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "slidetrack {args:?}: expected exit 1, stderr:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "slidetrack {args:?} panicked:\n{stderr}");
+    let lines: Vec<_> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "slidetrack {args:?}: expected one line on stderr, got:\n{stderr}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    lines[0].to_string()
+}
+
+/// A fresh temporary directory.
+pub fn tempdir() -> tempfile::TempDir {
+    tempfile::tempdir().expect("temporary directory")
+}
+
+/// Collects one simulated trial into `dir` and returns its path.
+pub fn collect(dir: &Path, object: &str, seed: u64, duration_s: f64, extra: &[&str]) -> PathBuf {
+    let d = duration_s.to_string();
+    let s = seed.to_string();
+    let out = dir.to_str().expect("utf-8 path");
+    let mut args = vec!["-q", "collect", "--object", object, "--duration", &d, "--seed", &s, "--out", out];
+    args.extend_from_slice(extra);
+    ok(&args);
+    dir.join(format!("{object}-s{seed}-t000.mcap"))
+}
+
+/// The Python interpreter that has the official `mcap` package
+/// (`SLIDETRACK_PYTHON`, set by `scripts/test`), or `python3`.
+pub fn python() -> String {
+    std::env::var("SLIDETRACK_PYTHON").unwrap_or_else(|_| "python3".into())
+}
