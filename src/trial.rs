@@ -11,7 +11,9 @@ use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig, TrialOutco
 use slidetrack_drivers::session::{Recorder, RecorderOptions, SessionMetadata};
 use slidetrack_drivers::sim::camera::SimCameraRenderer;
 use slidetrack_drivers::sim::{ObjectConfig, SimCamera, SimDevices, Stream, sliding_episodes, stream_seed};
-use slidetrack_drivers::{Camera, Clock, SimClock, TactileSource, TimeNs, WallClock};
+use slidetrack_drivers::{
+    Camera, CameraIntrinsics, Clock, SimClock, TactileInfo, TactileSource, TimeNs, WallClock,
+};
 
 use crate::observer::{MarkerTracking, SessionObserver, TrialStats};
 use crate::rig_config::RigConfig;
@@ -99,25 +101,26 @@ fn rfc3339_now() -> String {
     humantime::format_rfc3339_seconds(SystemTime::now()).to_string()
 }
 
-/// Runs one trial of the simulated rig and records it to `spec.path`.
-/// `progress` receives the session time of every scan; `stop` ends the trial
-/// early with a safe release.
-pub fn run_sim_trial(
-    spec: &TrialSpec,
-    stop: &AtomicBool,
-    progress: &mut dyn FnMut(TimeNs),
-) -> Result<TrialReport> {
-    if spec.path.exists() && !spec.overwrite {
-        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
-    }
-    let started = Instant::now();
+/// A rig ready to run, with what the recorder needs to know about it.
+pub struct RigSetup {
+    /// The devices.
+    pub rig: Rig,
+    /// Facts about the tactile source, for the taxel layout.
+    pub tactile_info: TactileInfo,
+    /// Marker detection on the camera's frames, when there is a camera.
+    pub tracking: Option<MarkerTracking>,
+    /// `sim`, or the name of the real rig.
+    pub rig_name: String,
+}
+
+/// The simulated rig of `spec`'s trial, with its camera when asked for.
+pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let clock: Arc<dyn Clock> =
         if spec.realtime { Arc::new(WallClock::start()) } else { Arc::new(SimClock::new()) };
     let object = spec.object;
     let sim = SimDevices::new(&spec.rig.sim, object, spec.seed, spec.trial, clock.clone());
     let tactile_info = sim.tactile.info();
     let geometry = &spec.rig.geometry;
-
     let (camera, tracking) = if spec.camera {
         let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
             .context("cannot make the marker for the simulated camera")?;
@@ -140,24 +143,65 @@ pub fn run_sim_trial(
                 None
             }
         }));
-        let axis = SlidingAxis::new(camera.hand_from_camera(), geometry.sliding_axis_in_hand.into())?;
-        let tracking = MarkerTracking {
-            tracker: MarkerTracker::new(
-                Dictionary::from_name(&spec.rig.marker.dictionary)?,
-                spec.rig.marker.id,
-            )?,
-            marker_size_m: object.appearance.marker_size_m,
-            intrinsics: camera.intrinsics().clone(),
-            projector: axis.projector(),
-        };
+        let tracking = marker_tracking(spec, camera.hand_from_camera(), camera.intrinsics())?;
         (Some(Box::new(camera) as Box<dyn Camera>), Some(tracking))
     } else {
         (None, None)
     };
+    let rig = Rig {
+        tactile: Box::new(sim.tactile),
+        hand: Box::new(sim.hand),
+        camera,
+        clock,
+        truth: Some(Box::new(sim.truth)),
+    };
+    Ok(RigSetup { rig, tactile_info, tracking, rig_name: "sim".into() })
+}
 
+/// Marker detection for a camera at `hand_from_camera` with `intrinsics`.
+pub fn marker_tracking(
+    spec: &TrialSpec,
+    hand_from_camera: nalgebra::Isometry3<f64>,
+    intrinsics: &CameraIntrinsics,
+) -> Result<MarkerTracking> {
+    let axis = SlidingAxis::new(hand_from_camera, spec.rig.geometry.sliding_axis_in_hand.into())?;
+    Ok(MarkerTracking {
+        tracker: MarkerTracker::new(Dictionary::from_name(&spec.rig.marker.dictionary)?, spec.rig.marker.id)?,
+        marker_size_m: spec.object.appearance.marker_size_m,
+        intrinsics: intrinsics.clone(),
+        projector: axis.projector(),
+    })
+}
+
+/// Runs one trial of the simulated rig and records it to `spec.path`.
+pub fn run_sim_trial(
+    spec: &TrialSpec,
+    stop: &AtomicBool,
+    progress: &mut dyn FnMut(TimeNs),
+) -> Result<TrialReport> {
+    if spec.path.exists() && !spec.overwrite {
+        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
+    }
+    let setup = build_sim_rig(spec)?;
+    record_trial(setup, spec, stop, progress)
+}
+
+/// Runs the controlled-sliding protocol on a rig and records everything to
+/// `spec.path`. `progress` receives the session time of every scan; `stop`
+/// ends the trial early with a safe release. The file is finished (complete
+/// and readable) on every path out, including errors of the trial.
+pub fn record_trial(
+    setup: RigSetup,
+    spec: &TrialSpec,
+    stop: &AtomicBool,
+    progress: &mut dyn FnMut(TimeNs),
+) -> Result<TrialReport> {
+    let started = Instant::now();
+    let RigSetup { mut rig, tactile_info, tracking, rig_name } = setup;
+    let object = spec.object;
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),
-        rig: "sim".into(),
+        rig: rig_name,
         rig_config: toml::to_string(spec.rig).context("cannot serialise the rig configuration")?,
         object: object.name.clone(),
         object_config: toml::to_string(object).context("cannot serialise the object")?,
@@ -167,9 +211,9 @@ pub fn run_sim_trial(
     };
     let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
     let recorder = Recorder::create_with_options(&spec.path, metadata.to_map(), options)?;
+    let with_truth = rig.truth.is_some();
     let mut observer =
-        SessionObserver::new(recorder.logger(), &tactile_info, tracking, true, Box::new(progress))?;
-
+        SessionObserver::new(recorder.logger(), &tactile_info, tracking, with_truth, Box::new(progress))?;
     let e = &object.experiment;
     let mut protocol = Protocol::new(ProtocolConfig {
         settings: spec.rig.protocol.clone(),
@@ -182,13 +226,6 @@ pub fn run_sim_trial(
         travel_limit_m: e.travel_limit_m,
         cycles_duration_s: spec.duration_s,
     });
-    let mut rig = Rig {
-        tactile: Box::new(sim.tactile),
-        hand: Box::new(sim.hand),
-        camera,
-        clock,
-        truth: Some(Box::new(sim.truth)),
-    };
     let outcome = run_trial(&mut rig, &mut protocol, &mut observer, stop);
     let stats = observer.stats().clone();
     drop(observer);

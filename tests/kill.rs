@@ -34,3 +34,42 @@ fn a_killed_recording_is_readable_up_to_its_last_complete_chunk() {
     let csv = ok(&["export", path, "--channel", "/tactile/raw", "--recover"]);
     assert_eq!(csv.lines().count() as u64, n + 1);
 }
+
+#[test]
+fn ctrl_c_releases_the_hand_and_leaves_a_complete_session() {
+    use nix::sys::signal::{Signal, kill};
+    use nix::unistd::Pid;
+    let dir = tempdir();
+    let child = slidetrack()
+        .args([
+            "-q",
+            "collect",
+            "--object",
+            "bottle",
+            "--duration",
+            "60",
+            "--no-camera",
+            "--realtime",
+            "--out",
+        ])
+        .arg(dir.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("collect starts");
+    std::thread::sleep(Duration::from_secs(3));
+    kill(Pid::from_raw(child.id() as i32), Signal::SIGINT).expect("SIGINT");
+    let out = child.wait_with_output().expect("collect ends");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    // Complete: readable without --recover, with its outcome.
+    let file = dir.path().join("bottle-s1-t000.mcap");
+    let info: serde_json::Value =
+        serde_json::from_str(&ok(&["info", file.to_str().unwrap(), "--json"])).unwrap();
+    assert_eq!(info["truncated"], false);
+    let outcome = &info["metadata"]["slidetrack.outcome"];
+    assert_eq!(outcome["completed"], "false");
+    assert!(outcome["abort_reason"].as_str().unwrap().contains("interrupted"), "{outcome}");
+    let events = ok(&["export", file.to_str().unwrap(), "--channel", "/protocol/events"]);
+    assert!(events.contains("aborted"), "{events}");
+}
