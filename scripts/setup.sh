@@ -3,13 +3,15 @@
 #   - OpenCV 4 development files with the contrib modules (ArUco) and
 #     clang/libclang, which the opencv crate needs to generate its bindings;
 #   - a TrueType font (DejaVu) for the text of plots;
+#   - the kernel's user-space headers (linux/videodev2.h), from which the v4l
+#     crate generates its V4L2 bindings with libclang;
 #   - with --test: a Python virtual environment (target/pyenv) holding the
-#     official MCAP reader, used by the interoperability tests.
+#     official MCAP reader and NumPy, used by the interoperability tests.
 # Runs apt-get through sudo only when not root.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(libopencv-dev libopencv-contrib-dev clang libclang-dev pkg-config fonts-dejavu-core)
+packages=(libopencv-dev libopencv-contrib-dev clang libclang-dev pkg-config fonts-dejavu-core linux-libc-dev)
 if [ "${1:-}" = "--test" ]; then
   python3 -c 'import venv, ensurepip' 2>/dev/null || packages+=(python3-venv)
 fi
@@ -31,10 +33,10 @@ if [ "${#missing[@]}" -gt 0 ]; then
 fi
 
 if [ "${1:-}" = "--test" ]; then
-  if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap' 2>/dev/null; then
-    echo "setup: creating target/pyenv with the official mcap reader" >&2
+  if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap, numpy' 2>/dev/null; then
+    echo "setup: creating target/pyenv with the official mcap reader and numpy" >&2
     mkdir -p target
     python3 -m venv target/pyenv
-    target/pyenv/bin/python -m pip install -q mcap
+    target/pyenv/bin/python -m pip install -q mcap numpy
   fi
 fi

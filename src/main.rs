@@ -2,6 +2,9 @@
 
 mod cli;
 mod commands;
+mod dataset;
+mod dekf_run;
+mod hw_rig;
 mod observer;
 mod plot;
 mod rig_config;

@@ -9,12 +9,12 @@ use slidetrack_calibration::{MarkerTracker, SlidingProjector, marker_pose};
 use slidetrack_control::{Baseline, ControlRecord, ObserverError, ProtocolEvent, Tare, TrialObserver};
 use slidetrack_drivers::session::{
     ArucoDetection, CameraCalibration, ChannelHandle, CompressedImage, FingerSetpoint, GraspControl,
-    HandCommand, Logger, PerFinger, Quaternion, SimTruth as TruthMsg, TactileRaw, TactileTare, TactileZeroed,
-    TaxelLayout, Xyz,
+    HandCommand, Logger, PerFinger, Quaternion, SimTruth as TruthMsg, TactileDecoder, TactileRaw,
+    TactileTare, TactileZeroed, TaxelLayout, Xyz,
 };
 use slidetrack_drivers::session::{ChannelMessage, ProtocolEvent as EventMsg};
 use slidetrack_drivers::sim::SimTruth;
-use slidetrack_drivers::{CameraIntrinsics, Frame, TactileInfo, TactileSample, TimeNs};
+use slidetrack_drivers::{CameraIntrinsics, DecoderCounters, Frame, TactileInfo, TactileSample, TimeNs};
 
 /// The marker detection of a trial.
 pub struct MarkerTracking {
@@ -43,6 +43,8 @@ pub struct TrialStats {
     pub truth: Vec<(TimeNs, f64, f64)>,
     /// Session time of the release (the end of the cycles), if reached.
     pub release_at: Option<TimeNs>,
+    /// The tactile decoder's last counters (real devices only).
+    pub decoder: Option<DecoderCounters>,
 }
 
 struct Channels {
@@ -56,7 +58,12 @@ struct Channels {
     image: Option<ChannelHandle>,
     calibration: Option<ChannelHandle>,
     aruco: Option<ChannelHandle>,
+    /// `/tactile/decoder`, registered with the first counters.
+    decoder: Option<ChannelHandle>,
 }
+
+/// Longest time between two `/tactile/decoder` messages while nothing changes (s).
+const DECODER_LOG_PERIOD_S: f64 = 1.0;
 
 /// A [`TrialObserver`] that records to a session.
 pub struct SessionObserver<'a> {
@@ -65,6 +72,8 @@ pub struct SessionObserver<'a> {
     marker: Option<MarkerTracking>,
     stats: TrialStats,
     progress: Box<dyn FnMut(TimeNs) + 'a>,
+    /// When the decoder counters were last written, and what they were.
+    decoder_written: Option<(TimeNs, DecoderCounters)>,
 }
 
 impl<'a> SessionObserver<'a> {
@@ -78,7 +87,7 @@ impl<'a> SessionObserver<'a> {
         progress: Box<dyn FnMut(TimeNs) + 'a>,
     ) -> Result<SessionObserver<'a>> {
         let none = BTreeMap::new;
-        let layout = TaxelLayout::new(tactile, None).channel_metadata();
+        let layout = TaxelLayout::new(tactile, tactile.taxels).channel_metadata();
         let ch = Channels {
             raw: logger.register::<TactileRaw>(layout)?,
             tare: logger.register::<TactileTare>(none())?,
@@ -90,6 +99,7 @@ impl<'a> SessionObserver<'a> {
             image: camera.as_ref().map(|_| logger.register::<CompressedImage>(none())).transpose()?,
             calibration: camera.as_ref().map(|_| logger.register::<CameraCalibration>(none())).transpose()?,
             aruco: camera.as_ref().map(|_| logger.register::<ArucoDetection>(none())).transpose()?,
+            decoder: None,
         };
         if let (Some(c), Some(m)) = (&ch.calibration, &camera) {
             logger.log_json(
@@ -100,7 +110,25 @@ impl<'a> SessionObserver<'a> {
                 &CameraCalibration::new(TimeNs::ZERO, "camera", &m.intrinsics),
             )?;
         }
-        Ok(SessionObserver { logger, ch, marker: camera, stats: TrialStats::default(), progress })
+        Ok(SessionObserver {
+            logger,
+            ch,
+            marker: camera,
+            stats: TrialStats::default(),
+            progress,
+            decoder_written: None,
+        })
+    }
+
+    /// Writes the decoder's latest counters at `t` unless they were written already.
+    fn flush_decoder(&mut self, t: TimeNs) -> Result<(), ObserverError> {
+        let (Some(ch), Some(latest)) = (&self.ch.decoder, self.stats.decoder) else { return Ok(()) };
+        if self.decoder_written.is_some_and(|(_, c)| c == latest) {
+            return Ok(());
+        }
+        self.logger.log_json(ch, t, t, 0, &TactileDecoder::from(&latest))?;
+        self.decoder_written = Some((t, latest));
+        Ok(())
     }
 
     /// What was recorded so far.
@@ -211,9 +239,25 @@ impl TrialObserver for SessionObserver<'_> {
         if e.phase == slidetrack_control::Phase::Release {
             self.stats.release_at = Some(t);
         }
+        if matches!(e.phase, slidetrack_control::Phase::Done | slidetrack_control::Phase::Aborted) {
+            let last = self.decoder_written.map_or(t, |(w, _)| w.max(t));
+            self.flush_decoder(last)?;
+        }
         tracing::info!(phase = e.phase.name(), "{}", e.message);
         let msg =
             EventMsg { phase: e.phase.name().into(), message: e.message.clone(), abort: e.abort.is_some() };
         self.log(&self.ch.events, t, &msg)
+    }
+
+    fn on_decoder(&mut self, t: TimeNs, counters: &DecoderCounters) -> Result<(), ObserverError> {
+        if self.ch.decoder.is_none() {
+            self.ch.decoder = Some(self.logger.register::<TactileDecoder>(BTreeMap::new())?);
+        }
+        self.stats.decoder = Some(*counters);
+        let due = match self.decoder_written {
+            None => true,
+            Some((t0, c0)) => counters.errors_differ(&c0) || t.secs_since(t0) >= DECODER_LOG_PERIOD_S,
+        };
+        if due { self.flush_decoder(t) } else { Ok(()) }
     }
 }

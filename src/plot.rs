@@ -101,6 +101,11 @@ fn y_bounds(panel: &Panel) -> (f64, f64) {
 
 /// Draws `panels` stacked vertically, sharing the time axis (s), into `out` (PNG).
 pub fn draw_stacked(out: &Path, title: &str, panels: &[Panel]) -> Result<()> {
+    draw_stacked_x(out, title, "time (s)", panels)
+}
+
+/// Draws `panels` stacked vertically, sharing an x axis labelled `x_label`, into `out` (PNG).
+pub fn draw_stacked_x(out: &Path, title: &str, x_label: &str, panels: &[Panel]) -> Result<()> {
     ensure_font()?;
     if panels.iter().all(|p| p.series.iter().all(|s| s.points.is_empty())) {
         bail!("nothing to plot: the session has no data for this plot");
@@ -114,7 +119,7 @@ pub fn draw_stacked(out: &Path, title: &str, panels: &[Panel]) -> Result<()> {
         let areas = body.split_evenly((panels.len(), 1));
         let x_range = bounds(panels);
         for (area, panel) in areas.iter().zip(panels) {
-            draw_panel(area, panel, x_range)?;
+            draw_panel(area, panel, x_range, x_label)?;
         }
         root.present()?;
         Ok(())
@@ -126,6 +131,7 @@ fn draw_panel(
     area: &DrawingArea<BitMapBackend<'_>, Shift>,
     panel: &Panel,
     (x0, x1): (f64, f64),
+    x_label: &str,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let (y0, y1) = y_bounds(panel);
     let mut chart = ChartBuilder::on(area)
@@ -134,12 +140,7 @@ fn draw_panel(
         .x_label_area_size(35)
         .y_label_area_size(70)
         .build_cartesian_2d(x0..x1, y0..y1)?;
-    chart
-        .configure_mesh()
-        .x_desc("time (s)")
-        .y_desc(&panel.y_label)
-        .light_line_style(WHITE.mix(0.0))
-        .draw()?;
+    chart.configure_mesh().x_desc(x_label).y_desc(&panel.y_label).light_line_style(WHITE.mix(0.0)).draw()?;
     for s in &panel.series {
         let colour = s.colour;
         if s.dots {

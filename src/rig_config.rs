@@ -7,6 +7,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use slidetrack_control::ProtocolSettings;
+use slidetrack_drivers::hw::HwRigConfig;
 use slidetrack_drivers::sim::SimRigConfig;
 use slidetrack_drivers::sim::camera::SimCameraConfig;
 
@@ -24,6 +25,9 @@ pub struct RigConfig {
     pub geometry: Geometry,
     /// The experiment protocol.
     pub protocol: ProtocolSettings,
+    /// The real rig's devices (`--rig hw`); absent for the simulated rig.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hw: Option<HwRigConfig>,
 }
 
 /// The ArUco marker on the object (its size comes with the object).
@@ -92,6 +96,15 @@ impl RigConfig {
             s.tactile_rate_hz
         );
         self.camera.validate().context("camera")?;
+        if let Some(hw) = &self.hw {
+            hw.validate()?;
+            let rate = hw.tactile_rate_hz(s.tactile_rate_hz);
+            anyhow::ensure!(
+                self.protocol.control_rate_hz <= rate,
+                "protocol.control_rate_hz ({}) must be at most the hw tactile rate ({rate})",
+                self.protocol.control_rate_hz
+            );
+        }
         Ok(())
     }
 }

@@ -72,6 +72,11 @@ impl Dictionary {
         self.name
     }
 
+    /// The OpenCV dictionary itself.
+    pub(crate) fn opencv(&self) -> &Ptr<aruco::Dictionary> {
+        &self.inner
+    }
+
     /// Inner cells per marker side (without the black border).
     pub fn cells(&self) -> usize {
         self.inner.marker_size().max(0) as usize

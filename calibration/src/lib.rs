@@ -3,8 +3,14 @@
 
 pub mod aruco;
 pub mod axis;
+pub mod calibrate;
+pub mod calibrate_live;
+pub mod camera_info;
 pub mod codec;
 pub mod error;
+pub mod ground_truth;
+pub mod label;
+pub mod marker_tool;
 pub mod pose;
 
 #[cfg(test)]

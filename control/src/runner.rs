@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use slidetrack_drivers::sim::{SimTruth, TruthSource};
 use slidetrack_drivers::{
-    Camera, Clock, DeviceError, Frame, HandActuator, TactileSample, TactileSource, TimeNs,
+    Camera, Clock, DecoderCounters, DeviceError, Frame, HandActuator, TactileSample, TactileSource, TimeNs,
 };
 
 use crate::protocol::{Baseline, ControlRecord, HandAction, Phase, Protocol, ProtocolEvent, Tare};
@@ -48,6 +48,11 @@ pub trait TrialObserver {
     fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError>;
     /// A phase change or an abort.
     fn on_event(&mut self, t: TimeNs, event: &ProtocolEvent) -> Result<(), ObserverError>;
+    /// The tactile decoder's counters after a scan, and once more when the
+    /// tactile source fails (sources that decode a stream only).
+    fn on_decoder(&mut self, _t: TimeNs, _counters: &DecoderCounters) -> Result<(), ObserverError> {
+        Ok(())
+    }
 }
 
 /// How a trial ended.
@@ -82,6 +87,10 @@ pub fn run_trial(
         let sample = match rig.tactile.read() {
             Ok(s) => s,
             Err(e) => {
+                if let Some(counters) = rig.tactile.counters() {
+                    // The trial ends with the error below; a recorder failure adds nothing.
+                    let _ = observer.on_decoder(last_t, &counters);
+                }
                 emit(observer, last_t, protocol.device_error(e));
                 break;
             }
@@ -125,6 +134,9 @@ fn observe_scan(
 ) -> Result<(), ObserverError> {
     let t = sample.t;
     observer.on_tactile(sample)?;
+    if let Some(counters) = rig.tactile.counters() {
+        observer.on_decoder(t, &counters)?;
+    }
     if let Some(truth) = rig.truth.as_mut().and_then(|s| s.latest()) {
         observer.on_truth(&truth)?;
     }

@@ -1,5 +1,6 @@
 //! Controlled-sliding trials on the simulated rig, end to end through the
 //! protocol and the runner (no camera, no recording).
+#![allow(clippy::unwrap_used)] // test code: a failed unwrap is a failed test
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -63,7 +64,7 @@ fn run(object: &str, seed: u64, trial: u32, duration_s: f64) -> (TrialOutcome, C
 
 fn run_object(obj: &ObjectConfig, seed: u64, trial: u32, duration_s: f64) -> (TrialOutcome, Collected) {
     let clock = Arc::new(SimClock::new());
-    let sim = SimDevices::new(&SimRigConfig::default(), &obj, seed, trial, clock.clone());
+    let sim = SimDevices::new(&SimRigConfig::default(), obj, seed, trial, clock.clone());
     let mut rig = Rig {
         tactile: Box::new(sim.tactile),
         hand: Box::new(sim.hand),

@@ -2,7 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{DeviceError, TimeNs};
+use crate::session::{PerFinger, TaxelRef};
+use crate::{DecoderCounters, DeviceError, TimeNs};
 
 /// A finger of the hand that carries a tactile module.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -59,6 +60,10 @@ pub struct TactileInfo {
     pub device: String,
     /// Nominal sample rate (Hz).
     pub rate_hz: f64,
+    /// The sensor module and taxel each finger's values come from, when the
+    /// device has several (`None`: one module per finger, taxel 0).
+    #[serde(default)]
+    pub taxels: Option<PerFinger<TaxelRef>>,
 }
 
 /// A source of tactile samples.
@@ -77,4 +82,10 @@ pub trait TactileSource: Send {
     fn read(&mut self) -> Result<TactileSample, DeviceError>;
     /// What this source is.
     fn info(&self) -> TactileInfo;
+    /// Counters of the source's decoder (frames, CRC errors, resyncs, gaps,
+    /// incomplete scans), for backends that decode a byte or frame stream;
+    /// `None` for the others.
+    fn counters(&self) -> Option<DecoderCounters> {
+        None
+    }
 }

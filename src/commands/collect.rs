@@ -4,6 +4,7 @@ use std::sync::atomic::Ordering;
 
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use slidetrack_control::AbortReason;
 use slidetrack_drivers::sim::ObjectConfig;
 
 use crate::cli::{CollectArgs, RigKind};
@@ -24,12 +25,6 @@ pub fn run(args: &CollectArgs, quiet: bool) -> Result<()> {
 
 /// Runs the trials of `args`, printing one line per trial; returns their reports.
 pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
-    if args.rig == RigKind::Hw {
-        bail!(
-            "--rig hw needs hardware device backends (serial or CAN tactile sensors, a V4L2 camera, a CAN hand), \
-             which this version of slidetrack does not include yet; use --rig sim"
-        );
-    }
     if !(args.duration.is_finite() && args.duration > 0.0) {
         bail!("--duration must be a positive number of seconds, got {}", args.duration);
     }
@@ -68,13 +63,31 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
         let mut progress = |t: slidetrack_drivers::TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
         };
-        let report = run_sim_trial(&spec, &stop, &mut progress)?;
+        let report = match args.rig {
+            RigKind::Sim => run_sim_trial(&spec, &stop, &mut progress)?,
+            RigKind::Hw => crate::hw_rig::run_hw_trial(&spec, &stop, &mut progress)?,
+        };
         bar.suspend(|| println!("{}", report.summary_line()));
+        if let Some(counters) = report.stats.decoder {
+            bar.suspend(|| println!("  tactile decoder: {counters}"));
+        }
         if report.images_dropped > 0 {
             tracing::warn!(
                 "{}: {} camera images dropped under back-pressure",
                 report.path.display(),
                 report.images_dropped
+            );
+        }
+        if let Some(AbortReason::Device(e)) = &report.outcome.abort {
+            bar.finish_and_clear();
+            let hand = match &report.outcome.release_error {
+                None => "the hand was released".to_string(),
+                Some(r) => format!("releasing the hand failed too ({r})"),
+            };
+            bail!(
+                "trial {trial} stopped: {e}; {hand}; {} keeps the {} scans recorded so far",
+                report.path.display(),
+                report.stats.scans
             );
         }
         reports.push(report);

@@ -1,12 +1,22 @@
 //! One module per subcommand; `dispatch` routes to them.
 
+mod aruco;
 mod bench;
+mod calibrate;
 mod collect;
+mod decode;
 mod demo;
+mod devices;
+pub mod eval;
 mod export;
 mod info;
+mod label;
 mod objects;
 mod plot;
+mod plot_ground_truth;
+pub mod replay;
+pub mod train;
+pub mod vision;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -26,6 +36,15 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Demo(args) => demo::run(&args, quiet),
         Command::Bench(args) => bench::run(&args),
         Command::Objects => objects::run(),
+        Command::Train(args) => train::run(&args, quiet),
+        Command::Replay(args) => replay::run_cmd(&args),
+        Command::Eval(args) => eval::run_cmd(&args),
+        Command::Vision(args) => vision::run(&args, quiet),
+        Command::Label(args) => label::run(&args, quiet),
+        Command::Calibrate(args) => calibrate::run(&args, quiet),
+        Command::Aruco(args) => aruco::run(&args),
+        Command::Devices(args) => devices::run(&args),
+        Command::Decode(args) => decode::run(&args, quiet),
     }
 }
 

@@ -13,6 +13,7 @@ use crate::plot::{PALETTE, Panel, Series, draw_stacked};
 pub fn run(args: &PlotArgs) -> Result<()> {
     let opts = ReadOptions { recover: args.recover };
     let panels = match args.what {
+        PlotKind::GroundTruth => super::plot_ground_truth::panels(&args.file, opts)?,
         PlotKind::Grasp => grasp_panels(&args.file, opts)?,
         PlotKind::Tactile => {
             let mut p = tactile_panels(&args.file, opts)?;

@@ -55,15 +55,24 @@ pub fn channel_specs() -> Vec<ChannelSpec> {
         ChannelSpec::of::<TactileRaw>(),
         ChannelSpec::of::<TactileTare>(),
         ChannelSpec::of::<TactileZeroed>(),
+        ChannelSpec::of::<TactileDecoder>(),
         ChannelSpec::of::<GraspControl>(),
         ChannelSpec::of::<HandCommand>(),
         ChannelSpec::of::<CompressedImage>(),
         ChannelSpec::of::<CameraCalibration>(),
         ChannelSpec::of::<ArucoDetection>(),
         ChannelSpec::of::<SimTruth>(),
+        ChannelSpec::of::<super::ground_truth::GroundTruthSliding>(),
+        ChannelSpec::of::<super::ground_truth::GroundTruthMeasurement>(),
+        ChannelSpec::of::<super::estimates::TactileDerivative>(),
+        ChannelSpec::of::<super::estimates::DekfEstimate>(),
+        ChannelSpec::of::<super::estimates::ArucoEstimate>(),
         ChannelSpec::of::<ProtocolEvent>(),
         ChannelSpec::of::<RecorderStats>(),
     ]
+    .into_iter()
+    .chain(super::vision_pose::vision_channel_specs())
+    .collect()
 }
 
 /// Three components along the x, y and z axes of a tactile module's frame.
@@ -278,6 +287,61 @@ impl ChannelMessage for TactileZeroed {
             xyz(&format!("{f} module, counts minus baseline"), |a| number(&format!("{a} (counts)")))
         });
         schema::message(Self::SCHEMA_NAME, "One scan minus the baseline (counts)", props)
+    }
+}
+
+/// `/tactile/decoder`: the counters of the tactile device's decoder (real
+/// rigs and decoded captures), see [`crate::DecoderCounters`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TactileDecoder {
+    /// Frames decoded intact.
+    pub frames: u64,
+    /// Frames that arrived in sync but failed their CRC.
+    pub crc_errors: u64,
+    /// Times the decoder lost the frame boundaries and found them again.
+    pub resyncs: u64,
+    /// Bytes discarded while resynchronising.
+    pub bytes_skipped: u64,
+    /// Breaks in a module's sequence counter.
+    pub gaps: u64,
+    /// Scans dropped because a frame (or a mapped taxel) was missing.
+    pub incomplete_scans: u64,
+    /// Taxel samples the sensor marked invalid.
+    pub invalid_samples: u64,
+}
+
+impl From<&crate::DecoderCounters> for TactileDecoder {
+    fn from(c: &crate::DecoderCounters) -> TactileDecoder {
+        TactileDecoder {
+            frames: c.frames,
+            crc_errors: c.crc_errors,
+            resyncs: c.resyncs,
+            bytes_skipped: c.bytes_skipped,
+            gaps: c.gaps,
+            incomplete_scans: c.incomplete_scans,
+            invalid_samples: c.invalid_samples,
+        }
+    }
+}
+
+impl ChannelMessage for TactileDecoder {
+    const TOPIC: &'static str = "/tactile/decoder";
+    const SCHEMA_NAME: &'static str = "slidetrack.TactileDecoder";
+    fn json_schema() -> Value {
+        let count = |d: &str| uint(d, u64::MAX);
+        schema::message(
+            Self::SCHEMA_NAME,
+            "Counters of the tactile decoder since the device was opened",
+            vec![
+                ("frames", count("frames decoded intact")),
+                ("crc_errors", count("frames that arrived in sync but failed their CRC")),
+                ("resyncs", count("times the decoder lost and found the frame boundaries")),
+                ("bytes_skipped", count("bytes discarded while resynchronising")),
+                ("gaps", count("breaks in a module's sequence counter")),
+                ("incomplete_scans", count("scans dropped because a frame or mapped taxel was missing")),
+                ("invalid_samples", count("taxel samples the sensor marked invalid")),
+            ],
+        )
     }
 }
 

@@ -9,14 +9,18 @@
 
 mod csv;
 mod error;
+pub mod estimates;
+pub mod ground_truth;
 pub mod messages;
 mod metadata;
 mod reader;
 mod recorder;
+mod rewrite;
 mod scan;
 mod schema;
 mod summary;
 pub mod vision;
+pub mod vision_pose;
 mod writer;
 mod writer_thread;
 
@@ -25,15 +29,24 @@ mod tests;
 
 pub use csv::{CsvSummary, export_csv};
 pub use error::SessionError;
+pub use estimates::{
+    ArucoEstimate, DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate, TactileDerivative,
+};
+pub use ground_truth::{GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding};
 pub use messages::{
     ChannelMessage, ChannelSpec, FingerSetpoint, GraspControl, HandCommand, PerFinger, ProtocolEvent,
-    RecorderStats, SimTruth, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, TaxelRef, Xyz,
-    channel_specs,
+    RecorderStats, SimTruth, TactileDecoder, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, TaxelRef,
+    Xyz, channel_specs,
 };
 pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
 pub use reader::{ChannelDesc, MessageReader, RawMessage, ReadOptions, read_channel, read_json};
 pub use recorder::Recorder;
+pub use rewrite::{NewChannel, NewMessage, RewriteReport, rewrite_session};
 pub use schema::JSON_SCHEMA_DIALECT;
 pub use summary::{AttachmentSummary, ChannelSummary, SessionInfo};
 pub use vision::{ArucoDetection, CameraCalibration, CompressedImage, FoxgloveTime, Quaternion};
+pub use vision_pose::{
+    FrameTransform, ObjectTruth, PoseInFrame, RawImage, RgbdCalibration, RgbdColor, RgbdDepth, RgbdMask,
+    VelocityEstimate, VisionMask, VisionPose,
+};
 pub use writer::{ChannelHandle, Logger, RecorderOptions};

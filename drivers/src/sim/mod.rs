@@ -8,6 +8,7 @@ mod episodes;
 mod finger;
 mod friction;
 mod object;
+pub mod rgbd;
 mod rig;
 mod surface;
 mod tactile_model;

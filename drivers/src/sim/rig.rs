@@ -97,7 +97,7 @@ impl TactileSource for SimTactile {
     }
 
     fn info(&self) -> TactileInfo {
-        TactileInfo { device: "sim".into(), rate_hz: self.rate_hz }
+        TactileInfo { device: "sim".into(), rate_hz: self.rate_hz, taxels: None }
     }
 }
 

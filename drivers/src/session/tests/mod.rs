@@ -206,7 +206,8 @@ fn log_all<T: ChannelMessage>(rec: &Recorder, meta: BTreeMap<String, String>, ms
 pub(super) fn record_every_channel(path: &Path, e: &EveryChannel, options: RecorderOptions) -> RecorderStats {
     let rec = Recorder::create_with_options(path, session_metadata().to_map(), options).unwrap();
     rec.attach("camera.toml", "application/toml", b"fx = 600.5\n".to_vec()).unwrap();
-    let layout = TaxelLayout::new(&crate::TactileInfo { device: "sim".into(), rate_hz: 1000.0 }, None);
+    let layout =
+        TaxelLayout::new(&crate::TactileInfo { device: "sim".into(), rate_hz: 1000.0, taxels: None }, None);
     log_all(&rec, layout.channel_metadata(), &e.raw);
     log_all(&rec, BTreeMap::new(), &e.tare);
     log_all(&rec, BTreeMap::new(), &e.zeroed);

@@ -1,0 +1,202 @@
+//! Labelling a session: read its marker detections and tactile scan times,
+//! build the ground truth ([`crate::ground_truth`]) and write it into the
+//! file as `/ground_truth/sliding` and `/ground_truth/measurements`,
+//! rewriting the file atomically (every other record unchanged).
+
+use std::path::{Path, PathBuf};
+
+use slidetrack_drivers::TimeNs;
+use slidetrack_drivers::session::ground_truth::GROUND_TRUTH_PREFIX;
+use slidetrack_drivers::session::{
+    ArucoDetection, ChannelMessage, GroundTruthMeasurement, GroundTruthSliding, MessageReader, NewChannel,
+    ProtocolEvent, ReadOptions, SESSION_METADATA, SessionError, SessionInfo, SimTruth, TactileRaw,
+    rewrite_session,
+};
+use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use thiserror::Error;
+
+use crate::ground_truth::{
+    AxisSource, GroundTruth, GroundTruthError, Measurements, Rmse, marker_positions, parameters_record,
+    rmse_against_truth, smooth_ground_truth,
+};
+
+/// How to label.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LabelOptions {
+    /// The smoother's parameters.
+    pub params: CvSmootherParams,
+    /// Where the positions along the axis come from.
+    pub axis: AxisSource,
+    /// Label a truncated file (its complete chunks; the rewritten file is complete).
+    pub recover: bool,
+    /// Compute and report, but do not write the file.
+    pub dry_run: bool,
+}
+
+/// What a labelling did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LabelReport {
+    /// The session file.
+    pub path: PathBuf,
+    /// Tactile scans labelled (messages on `/ground_truth/sliding`).
+    pub samples: usize,
+    /// Camera frames.
+    pub frames: usize,
+    /// Camera frames with a marker position.
+    pub detections: usize,
+    /// Camera frames without one.
+    pub missing_detections: usize,
+    /// Marker positions the innovation gate rejected.
+    pub rejected_outliers: usize,
+    /// Against `/sim/truth` (when the session has it), from the first marker
+    /// position to the release of the hand.
+    pub rmse: Option<Rmse>,
+    /// The sliding direction in the camera frame, when computed here.
+    pub axis_in_camera: Option<[f64; 3]>,
+    /// The file was written (false for a dry run).
+    pub written: bool,
+}
+
+/// Why a session could not be labelled. The file is unchanged in every case.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum LabelError {
+    /// Reading or rewriting the file failed.
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// The session has no `/aruco/detections` channel (recorded without camera).
+    #[error("{path} has no marker detections (/aruco/detections): it was recorded without a camera")]
+    NoCamera {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The ground truth could not be built.
+    #[error("{path}: {source}")]
+    GroundTruth {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: GroundTruthError,
+    },
+    /// A message could not be encoded.
+    #[error("{path}: cannot encode the ground truth: {source}")]
+    Encode {
+        /// The file.
+        path: PathBuf,
+        /// The encoder's error.
+        #[source]
+        source: serde_json::Error,
+    },
+}
+
+/// What labelling needs from a session.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SessionInputs {
+    /// `/tactile/raw` log times.
+    pub scans: Vec<TimeNs>,
+    /// `/aruco/detections`, `None` when the session has no such channel.
+    pub detections: Option<Vec<(TimeNs, ArucoDetection)>>,
+    /// `/sim/truth`, empty on real sessions.
+    pub truth: Vec<(TimeNs, SimTruth)>,
+    /// When the hand released the object (or the trial aborted), from `/protocol/events`.
+    pub release: Option<TimeNs>,
+    /// The `rig_config` metadata (TOML), if any.
+    pub rig_config: Option<String>,
+}
+
+/// Reads what labelling needs in one pass over the file.
+pub fn read_inputs(path: &Path, options: ReadOptions) -> Result<SessionInputs, SessionError> {
+    let info = SessionInfo::read(path, options)?;
+    let rig_config = info.metadata.get(SESSION_METADATA).and_then(|m| m.get("rig_config")).cloned();
+    let topics = [TactileRaw::TOPIC, ArucoDetection::TOPIC, SimTruth::TOPIC, ProtocolEvent::TOPIC];
+    let mut inputs = SessionInputs { rig_config, ..SessionInputs::default() };
+    let mut detections = Vec::new();
+    let mut reader = MessageReader::open(path, &topics, options)?;
+    for message in reader.by_ref() {
+        let m = message?;
+        let decode = |e| SessionError::Decode {
+            path: path.to_path_buf(),
+            topic: m.topic().to_string(),
+            log_time: m.log_time,
+            source: e,
+        };
+        match m.topic() {
+            TactileRaw::TOPIC => inputs.scans.push(m.log_time),
+            ArucoDetection::TOPIC => {
+                detections.push((m.log_time, serde_json::from_slice(&m.data).map_err(decode)?))
+            }
+            SimTruth::TOPIC => {
+                inputs.truth.push((m.log_time, serde_json::from_slice(&m.data).map_err(decode)?))
+            }
+            _ => {
+                let event: ProtocolEvent = serde_json::from_slice(&m.data).map_err(decode)?;
+                if inputs.release.is_none() && (event.phase == "release" || event.abort) {
+                    inputs.release = Some(m.log_time);
+                }
+            }
+        }
+    }
+    if reader.channels().any(|c| c.topic == ArucoDetection::TOPIC) {
+        inputs.detections = Some(detections);
+    }
+    Ok(inputs)
+}
+
+/// The ground truth of `inputs`.
+pub fn compute(
+    inputs: &SessionInputs,
+    options: &LabelOptions,
+) -> Result<Option<(Measurements, GroundTruth)>, GroundTruthError> {
+    let Some(detections) = &inputs.detections else { return Ok(None) };
+    let measurements = marker_positions(detections, options.axis, inputs.rig_config.as_deref())?;
+    let gt = smooth_ground_truth(&inputs.scans, &measurements.positions, &options.params)?;
+    Ok(Some((measurements, gt)))
+}
+
+/// Labels the session at `path`: see the module documentation.
+pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport, LabelError> {
+    let read = ReadOptions { recover: options.recover };
+    let inputs = read_inputs(path, read)?;
+    let gt_err = |source| LabelError::GroundTruth { path: path.to_path_buf(), source };
+    let (measurements, gt) = compute(&inputs, options)
+        .map_err(gt_err)?
+        .ok_or_else(|| LabelError::NoCamera { path: path.to_path_buf() })?;
+    let sliding = gt.sliding();
+    let used = gt.measurements();
+    let rmse = match (used.first(), used.last()) {
+        (Some(first), Some(last)) if !inputs.truth.is_empty() => {
+            let until = inputs.release.map_or(last.0, |r| r.min(last.0));
+            rmse_against_truth(&sliding, &inputs.truth, first.0, until)
+        }
+        _ => None,
+    };
+    let mut report = LabelReport {
+        path: path.to_path_buf(),
+        samples: sliding.len(),
+        frames: measurements.frames,
+        detections: measurements.positions.len(),
+        missing_detections: measurements.missing,
+        rejected_outliers: gt.rejected(),
+        rmse,
+        axis_in_camera: measurements.axis_in_camera.map(|a| [a.x, a.y, a.z]),
+        written: false,
+    };
+    if options.dry_run {
+        return Ok(report);
+    }
+    let metadata = parameters_record(&options.params, &measurements).channel_metadata();
+    let encode = |source| LabelError::Encode { path: path.to_path_buf(), source };
+    let mut sliding_channel = NewChannel::of::<GroundTruthSliding>(metadata.clone());
+    for (t, m) in &sliding {
+        sliding_channel.push_json(*t, m).map_err(encode)?;
+    }
+    let mut measurement_channel = NewChannel::of::<GroundTruthMeasurement>(metadata);
+    for (t, m) in &used {
+        measurement_channel.push_json(*t, m).map_err(encode)?;
+    }
+    let is_ground_truth = |topic: &str| topic.starts_with(GROUND_TRUTH_PREFIX);
+    rewrite_session(path, read, &is_ground_truth, vec![sliding_channel, measurement_channel])?;
+    report.written = true;
+    Ok(report)
+}

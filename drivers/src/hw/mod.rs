@@ -1,0 +1,86 @@
+//! The real rig's devices: uSkin-style tactile sensors over serial and CAN,
+//! V4L2 cameras and the hand actuator on CAN.
+//!
+//! Protocols are decoded without I/O ([`serial_protocol`], [`can_protocol`],
+//! [`hand_can`]: bytes or frames in, frames or typed errors out, counters
+//! kept); the backends ([`serial`], [`can`], [`can_hand`], [`v4l2`]) only
+//! move bytes between a device and a decoder and map failures onto
+//! [`ErrorKind`]s. The wire formats are documented in `docs/protocols.md`.
+//! [`emulator`] streams the simulated rig's tactile data as real serial
+//! bytes through a pseudo-terminal; [`offline`] decodes captured traffic.
+
+pub mod can;
+pub mod can_hand;
+pub mod can_protocol;
+pub mod config;
+mod counters;
+pub mod devices;
+pub mod emulator;
+pub mod hand_can;
+pub mod mjpeg;
+pub mod offline;
+pub mod scan;
+pub mod serial;
+pub mod serial_protocol;
+pub mod v4l2;
+
+pub use can::{CanBus, CanTactile, SocketCanBus};
+pub use can_hand::CanHand;
+pub use config::HwRigConfig;
+pub use counters::DecoderCounters;
+pub use emulator::{EmulatedPort, EmulatedSerialTactile, SerialEmulator};
+pub use serial::SerialTactile;
+pub use v4l2::V4l2Camera;
+
+use nix::errno::Errno;
+
+use crate::ErrorKind;
+
+/// The [`ErrorKind`] of an I/O error from a device: a vanished device
+/// (hang-up, `ENODEV`, `EIO`, interface down) is `Disconnected`.
+pub(crate) fn io_error_kind(e: &std::io::Error) -> ErrorKind {
+    use std::io::ErrorKind as K;
+    if let Some(code) = e.raw_os_error() {
+        let errno = Errno::from_raw(code);
+        match errno {
+            Errno::ENODEV | Errno::ENXIO | Errno::EIO | Errno::ENETDOWN | Errno::EPIPE | Errno::EBADF => {
+                return ErrorKind::Disconnected;
+            }
+            Errno::ENOBUFS => return ErrorKind::Overrun,
+            Errno::ETIMEDOUT | Errno::EAGAIN => return ErrorKind::Timeout,
+            _ => {}
+        }
+    }
+    match e.kind() {
+        K::TimedOut | K::WouldBlock => ErrorKind::Timeout,
+        K::BrokenPipe
+        | K::NotFound
+        | K::UnexpectedEof
+        | K::ConnectionReset
+        | K::ConnectionAborted
+        | K::NotConnected => ErrorKind::Disconnected,
+        // serialport reports a failed read(2) on a vanished USB device as
+        // an untyped error carrying the errno's text.
+        _ if e.to_string().contains("I/O error") || e.to_string().contains("No such device") => {
+            ErrorKind::Disconnected
+        }
+        _ => ErrorKind::Other,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vanished_devices_are_disconnected() {
+        let kind = |e: std::io::Error| io_error_kind(&e);
+        assert_eq!(kind(std::io::Error::from_raw_os_error(Errno::ENODEV as i32)), ErrorKind::Disconnected);
+        assert_eq!(kind(std::io::Error::from_raw_os_error(Errno::ENETDOWN as i32)), ErrorKind::Disconnected);
+        assert_eq!(kind(std::io::ErrorKind::BrokenPipe.into()), ErrorKind::Disconnected);
+        assert_eq!(kind(std::io::Error::other("I/O error")), ErrorKind::Disconnected);
+        assert_eq!(kind(std::io::ErrorKind::TimedOut.into()), ErrorKind::Timeout);
+        assert_eq!(kind(std::io::Error::from_raw_os_error(Errno::ENOBUFS as i32)), ErrorKind::Overrun);
+        assert_eq!(kind(std::io::ErrorKind::InvalidInput.into()), ErrorKind::Other);
+    }
+}

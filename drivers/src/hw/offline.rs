@@ -1,0 +1,243 @@
+//! Captured traffic turned into tactile samples, for `slidetrack decode`:
+//! can-utils `candump -l` logs and raw serial byte captures. Both read their
+//! input as a stream with bounded memory.
+
+use std::io::{BufReader, Read};
+
+use socketcan::dump::{self, ParseError};
+use socketcan::{CanAnyFrame, EmbeddedFrame};
+
+use super::can_protocol::{CanFrame, CanScanAssembler};
+use super::config::{CanTactileConfig, SerialTactileConfig};
+use super::counters::DecoderCounters;
+use super::scan::{ModuleScanAssembler, SequenceUnwrapper};
+use super::serial_protocol::{SerialDecoder, SerialEvent};
+use crate::{RawTaxel, TactileSample, TimeNs};
+
+/// Decodes a `candump -l` log (`(1700000000.123456) can0 710#00123456789ABC`)
+/// into the scans of one uSkin board.
+///
+/// # Contract
+/// - Sample times are the log's timestamps relative to its first frame
+///   (session clock starting at 0), made non-decreasing.
+/// - Lines that do not parse are counted ([`CanLogDecoder::bad_lines`]) and
+///   skipped; frames of other ids and interfaces are ignored.
+pub struct CanLogDecoder<R: Read> {
+    reader: dump::Reader<BufReader<R>>,
+    interface: Option<String>,
+    assembler: CanScanAssembler,
+    board_taxels: [usize; 3],
+    first_us: Option<u64>,
+    last_t: TimeNs,
+    lines: u64,
+    bad_lines: u64,
+    first_error: Option<(u64, String)>,
+}
+
+impl<R: Read> CanLogDecoder<R> {
+    /// A decoder of the log in `input` for the board of `cfg`; frames of
+    /// interfaces other than `interface` are skipped when it is given.
+    pub fn new(input: R, cfg: &CanTactileConfig, interface: Option<String>) -> CanLogDecoder<R> {
+        CanLogDecoder {
+            reader: dump::Reader::from_reader(input),
+            interface,
+            assembler: CanScanAssembler::new(cfg.layout(), CanScanAssembler::span_for_rate(cfg.rate_hz)),
+            board_taxels: cfg.board_taxels(),
+            first_us: None,
+            last_t: TimeNs::ZERO,
+            lines: 0,
+            bad_lines: 0,
+            first_error: None,
+        }
+    }
+
+    /// The decoder counters so far.
+    pub fn counters(&self) -> DecoderCounters {
+        self.assembler.counters()
+    }
+
+    /// Lines read so far.
+    pub fn lines(&self) -> u64 {
+        self.lines
+    }
+
+    /// Lines that did not parse as candump records.
+    pub fn bad_lines(&self) -> u64 {
+        self.bad_lines
+    }
+
+    /// The first line that did not parse: `(line number, why)`.
+    pub fn first_error(&self) -> Option<&(u64, String)> {
+        self.first_error.as_ref()
+    }
+
+    fn frame(&mut self, record: dump::CanDumpRecord) -> Option<(TimeNs, CanFrame)> {
+        if self.interface.as_ref().is_some_and(|i| *i != record.device) {
+            return None;
+        }
+        let CanAnyFrame::Normal(data) = record.frame else { return None };
+        let id = socketcan::Frame::raw_id(&data);
+        let frame = CanFrame::new(id, data.is_extended(), data.data())?;
+        let first = *self.first_us.get_or_insert(record.t_us);
+        let t = TimeNs(record.t_us.saturating_sub(first).saturating_mul(1000)).max(self.last_t);
+        self.last_t = t;
+        Some((t, frame))
+    }
+}
+
+impl<R: Read> Iterator for CanLogDecoder<R> {
+    type Item = TactileSample;
+
+    fn next(&mut self) -> Option<TactileSample> {
+        loop {
+            let record = match self.reader.next_record() {
+                Ok(Some(r)) => r,
+                Ok(None) => return None,
+                Err(e) => {
+                    self.lines += 1;
+                    if let ParseError::Io(io) = &e
+                        && io.kind() != std::io::ErrorKind::InvalidData
+                    {
+                        self.first_error.get_or_insert((self.lines, io.to_string()));
+                        return None;
+                    }
+                    self.bad_lines += 1;
+                    self.first_error.get_or_insert((self.lines, e.to_string()));
+                    continue;
+                }
+            };
+            self.lines += 1;
+            let Some((t, frame)) = self.frame(record) else { continue };
+            let Some(scan) = self.assembler.push(t, &frame) else { continue };
+            match pick(&scan.taxels, self.board_taxels) {
+                Some(raw) => return Some(TactileSample { t: scan.t, sequence: scan.sequence, raw }),
+                None => self.assembler.count_unusable_scan(),
+            }
+        }
+    }
+}
+
+/// One line of a `candump -l` log for `frame` received at `t_us` (µs since
+/// the Unix epoch) on `interface`, without the newline.
+pub fn candump_line(t_us: u64, interface: &str, frame: &CanFrame) -> String {
+    let id = if frame.extended { format!("{:08X}", frame.id) } else { format!("{:03X}", frame.id) };
+    let data: String = frame.data().iter().map(|b| format!("{b:02X}")).collect();
+    format!("({}.{:06}) {interface} {id}#{data}", t_us / 1_000_000, t_us % 1_000_000)
+}
+
+fn pick(taxels: &[Option<RawTaxel>], board_taxels: [usize; 3]) -> Option<[RawTaxel; 3]> {
+    let [a, b, c] = board_taxels.map(|t| taxels.get(t).copied().flatten());
+    Some([a?, b?, c?])
+}
+
+/// Decodes a raw serial capture (the bytes as the port delivered them).
+///
+/// # Contract
+/// - Sample times come from the board's scan counter at `rate_hz`,
+///   relative to the first scan (the bytes carry no time of their own), made
+///   non-decreasing.
+/// - Reads the input in 64 KiB pieces; memory stays bounded whatever its size.
+pub struct SerialCaptureDecoder<R: Read> {
+    input: R,
+    decoder: SerialDecoder,
+    assembler: ModuleScanAssembler,
+    unwrapper: SequenceUnwrapper,
+    period_ns: f64,
+    first: Option<u64>,
+    last_t: TimeNs,
+    ready: std::collections::VecDeque<TactileSample>,
+    buf: Box<[u8]>,
+    bytes: u64,
+    error: Option<std::io::Error>,
+}
+
+impl<R: Read> SerialCaptureDecoder<R> {
+    /// A decoder of the capture in `input` for the modules of `cfg`, timed at `rate_hz`.
+    pub fn new(input: R, cfg: &SerialTactileConfig, rate_hz: f64) -> SerialCaptureDecoder<R> {
+        SerialCaptureDecoder {
+            input,
+            decoder: SerialDecoder::new(),
+            assembler: ModuleScanAssembler::new(&cfg.fingers),
+            unwrapper: SequenceUnwrapper::default(),
+            period_ns: 1e9 / rate_hz.max(1e-6),
+            first: None,
+            last_t: TimeNs::ZERO,
+            ready: Default::default(),
+            buf: vec![0; 64 << 10].into_boxed_slice(),
+            bytes: 0,
+            error: None,
+        }
+    }
+
+    /// The decoder counters so far.
+    pub fn counters(&self) -> DecoderCounters {
+        DecoderCounters { incomplete_scans: self.assembler.incomplete_scans(), ..self.decoder.counters() }
+    }
+
+    /// Bytes read so far.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// Bytes at the end that did not complete a frame (once the input is exhausted).
+    pub fn trailing_bytes(&self) -> usize {
+        self.decoder.buffered()
+    }
+
+    /// The read error that ended the input early, if any.
+    pub fn error(&self) -> Option<&std::io::Error> {
+        self.error.as_ref()
+    }
+}
+
+impl<R: Read> Iterator for SerialCaptureDecoder<R> {
+    type Item = TactileSample;
+
+    fn next(&mut self) -> Option<TactileSample> {
+        loop {
+            if let Some(s) = self.ready.pop_front() {
+                return Some(s);
+            }
+            if self.error.is_some() {
+                return None;
+            }
+            let n = match self.input.read(&mut self.buf) {
+                Ok(0) => return None,
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    self.error = Some(e);
+                    return None;
+                }
+            };
+            self.bytes += n as u64;
+            let SerialCaptureDecoder {
+                decoder,
+                assembler,
+                unwrapper,
+                ready,
+                buf,
+                first,
+                last_t,
+                period_ns,
+                ..
+            } = self;
+            decoder.feed(&buf[..n], |event| {
+                if let SerialEvent::Frame(frame) = event
+                    && let Some((sequence, raw)) = assembler.push(&frame)
+                {
+                    let sequence = unwrapper.unwrap(sequence);
+                    let first = *first.get_or_insert(sequence);
+                    // A scan counter that steps back (reordered frames) does not take time back.
+                    let t = TimeNs((sequence.saturating_sub(first) as f64 * *period_ns).round() as u64)
+                        .max(*last_t);
+                    *last_t = t;
+                    ready.push_back(TactileSample { t, sequence, raw });
+                }
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

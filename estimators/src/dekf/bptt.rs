@@ -1,0 +1,204 @@
+//! Loss (2.149) and its gradient for a batch of subsequences, by
+//! backpropagation through time (Sec. 2.5.3): the filter runs `T_s` steps from
+//! states drawn around the ground truth (2.148), and the gradient flows back
+//! through every correction, prediction and network evaluation.
+#![allow(non_snake_case)]
+
+use nalgebra::DMatrix;
+
+use super::ekf::{
+    CorrectGrad, Corrected, M2, Predicted, correct, correct_backward, predict, predict_backward,
+};
+use super::filter::MIN_INNOVATION_VAR;
+use super::mlp::{Tape, backward, forward};
+use super::model::DekfModel;
+
+/// A training sequence at the filter's rate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sequence {
+    /// Normalised feature-network inputs, `len x channels`, row-major.
+    pub measurements: Vec<f32>,
+    /// Whether step `t` has a usable measurement.
+    pub valid: Vec<bool>,
+    /// Ground-truth state per step `(p, v)` (cm, cm/s).
+    pub truth: Vec<[f64; 2]>,
+}
+
+impl Sequence {
+    /// Number of steps.
+    pub fn len(&self) -> usize {
+        self.truth.len()
+    }
+
+    /// True for a sequence without steps.
+    pub fn is_empty(&self) -> bool {
+        self.truth.is_empty()
+    }
+}
+
+/// One subsequence of a batch: sequence index, start step and initial state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Window {
+    /// Index of the sequence.
+    pub sequence: usize,
+    /// First step `t0`; the filter starts there and steps to `t0 + T_s`.
+    pub start: usize,
+    /// Initial mean, drawn from `N(x_gt(t0), P0)` (2.148).
+    pub mean0: [f64; 2],
+}
+
+/// Loss and gradient of a batch (or a shard of it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BatchGrad {
+    /// Sum over windows and steps of the squared state error `|x_gt - mu|^2`.
+    pub squared_error: f64,
+    /// The same split into position and velocity.
+    pub squared_error_pv: [f64; 2],
+    /// Number of corrected states compared.
+    pub states: usize,
+    /// Gradient of the sum of squared errors (not yet divided by `T_s B n`).
+    pub grad: Vec<f32>,
+}
+
+struct Step {
+    cov_prev: Vec<M2>,
+    J1: Vec<[f64; 2]>,
+    pred: Vec<Predicted>,
+    H: Vec<[f64; 2]>,
+    corr: Vec<Option<Corrected>>,
+    mean: Vec<[f64; 2]>,
+    t1: Tape,
+    t2: Tape,
+    t3: Option<Tape>,
+}
+
+fn with_tangents(means: &[[f64; 2]]) -> DMatrix<f32> {
+    let mut m = DMatrix::<f32>::zeros(2, 3 * means.len());
+    for (s, x) in means.iter().enumerate() {
+        m[(0, 3 * s)] = x[0] as f32;
+        m[(1, 3 * s)] = x[1] as f32;
+        m[(0, 3 * s + 1)] = 1.0;
+        m[(1, 3 * s + 2)] = 1.0;
+    }
+    m
+}
+
+/// Runs the filter over `windows` for `length` steps and backpropagates the
+/// sum of squared state errors. Deterministic for given inputs.
+pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], length: usize) -> BatchGrad {
+    let p = &model.params;
+    let l = &model.layout;
+    let n = windows.len();
+    let c = l.channels;
+    let dt = model.meta.dt_s;
+    let Q = model.process_noise();
+    let R = model.measurement_noise();
+    let p0 = model.meta.p0_diag;
+    let mut mean: Vec<[f64; 2]> = windows.iter().map(|w| w.mean0).collect();
+    let mut cov: Vec<M2> = vec![[[p0[0], 0.0], [0.0, p0[1]]]; n];
+    let mut steps: Vec<Step> = Vec::with_capacity(length);
+    let mut out =
+        BatchGrad { squared_error: 0.0, squared_error_pv: [0.0; 2], states: 0, grad: vec![0.0; l.len] };
+
+    for k in 1..=length {
+        let (y1, t1) = forward(p, &l.motion, with_tangents(&mean), 3, true);
+        let J1: Vec<[f64; 2]> =
+            (0..n).map(|s| [f64::from(y1[(0, 3 * s + 1)]), f64::from(y1[(0, 3 * s + 2)])]).collect();
+        let pred: Vec<Predicted> =
+            (0..n).map(|s| predict(mean[s], &cov[s], f64::from(y1[(0, 3 * s)]), J1[s], dt, &Q)).collect();
+        let pm: Vec<[f64; 2]> = pred.iter().map(|x| x.mean).collect();
+        let (y2, t2) = forward(p, &l.measurement, with_tangents(&pm), 3, true);
+        let H: Vec<[f64; 2]> =
+            (0..n).map(|s| [f64::from(y2[(0, 3 * s + 1)]), f64::from(y2[(0, 3 * s + 2)])]).collect();
+        let mut x3 = DMatrix::<f32>::zeros(c, n);
+        for (s, w) in windows.iter().enumerate() {
+            let t = w.start + k;
+            x3.column_mut(s).copy_from_slice(&data[w.sequence].measurements[t * c..(t + 1) * c]);
+        }
+        let (y3, t3) = forward(p, &l.feature, x3, 1, true);
+        let mut corr = Vec::with_capacity(n);
+        mean.clear();
+        let cov_prev = std::mem::take(&mut cov);
+        for (s, w) in windows.iter().enumerate() {
+            let t = w.start + k;
+            let pr = &pred[s];
+            let h = H[s];
+            let S = h[0] * (pr.cov[0][0] * h[0] + pr.cov[0][1] * h[1])
+                + h[1] * (pr.cov[1][0] * h[0] + pr.cov[1][1] * h[1])
+                + R;
+            let co = (data[w.sequence].valid[t] && S > MIN_INNOVATION_VAR)
+                .then(|| correct(pr.mean, &pr.cov, f64::from(y3[(0, s)]), f64::from(y2[(0, 3 * s)]), h, R))
+                .filter(|co| co.mean.iter().chain(co.cov.iter().flatten()).all(|v| v.is_finite()));
+            let (m, cv) = co.as_ref().map_or((pr.mean, pr.cov), |co| (co.mean, co.cov));
+            let truth = data[w.sequence].truth[t];
+            let e = [m[0] - truth[0], m[1] - truth[1]];
+            out.squared_error_pv[0] += e[0] * e[0];
+            out.squared_error_pv[1] += e[1] * e[1];
+            mean.push(m);
+            cov.push(cv);
+            corr.push(co);
+        }
+        out.states += n;
+        let (Some(t1), Some(t2)) = (t1, t2) else { unreachable!("forward keeps its tape when asked") };
+        steps.push(Step { cov_prev, J1, pred, H, corr, mean: mean.clone(), t1, t2, t3 });
+    }
+    out.squared_error = out.squared_error_pv[0] + out.squared_error_pv[1];
+
+    // Reverse pass.
+    let mut dmean = vec![[0.0f64; 2]; n];
+    let mut dcov = vec![[[0.0f64; 2]; 2]; n];
+    let mut dQ = [[0.0f64; 2]; 2];
+    let mut dR = 0.0f64;
+    for (k, step) in steps.iter().enumerate().rev() {
+        let t_of = |w: &Window| w.start + k + 1;
+        let mut dy2 = DMatrix::<f32>::zeros(1, 3 * n);
+        let mut dy3 = DMatrix::<f32>::zeros(1, n);
+        let mut dy1 = DMatrix::<f32>::zeros(1, 3 * n);
+        for (s, w) in windows.iter().enumerate() {
+            let truth = data[w.sequence].truth[t_of(w)];
+            let m = step.mean[s];
+            // d/dmu of |x_gt - mu|^2.
+            dmean[s][0] += 2.0 * (m[0] - truth[0]);
+            dmean[s][1] += 2.0 * (m[1] - truth[1]);
+            let pr = &step.pred[s];
+            let cg = match &step.corr[s] {
+                Some(co) => {
+                    let g = correct_backward(co, &pr.cov, step.H[s], R, dmean[s], &dcov[s]);
+                    dR += g.R;
+                    dy2[(0, 3 * s)] = g.zhat as f32;
+                    dy2[(0, 3 * s + 1)] = g.H[0] as f32;
+                    dy2[(0, 3 * s + 2)] = g.H[1] as f32;
+                    dy3[(0, s)] = g.z as f32;
+                    g
+                }
+                None => CorrectGrad { mean: dmean[s], cov: dcov[s], ..CorrectGrad::default() },
+            };
+            let pg = predict_backward(pr, &step.cov_prev[s], step.J1[s], model.meta.dt_s, cg.mean, &cg.cov);
+            for (row, grad_row) in dQ.iter_mut().zip(&pg.Q) {
+                for (d, g) in row.iter_mut().zip(grad_row) {
+                    *d += g;
+                }
+            }
+            dy1[(0, 3 * s)] = pg.a as f32;
+            dy1[(0, 3 * s + 1)] = pg.J1[0] as f32;
+            dy1[(0, 3 * s + 2)] = pg.J1[1] as f32;
+            dmean[s] = pg.mean;
+            dcov[s] = pg.cov;
+        }
+        backward(p, &mut out.grad, &l.measurement, &step.t2, &dy2);
+        if let Some(t3) = &step.t3 {
+            backward(p, &mut out.grad, &l.feature, t3, &dy3);
+        }
+        backward(p, &mut out.grad, &l.motion, &step.t1, &dy1);
+    }
+    // Q = L L^T: dL = (dQ + dQ^T) L, lower triangle; R = L_R^2: dL_R = 2 L_R dR.
+    let o = l.process_noise;
+    let L = [[f64::from(p[o]), 0.0], [f64::from(p[o + 2]), f64::from(p[o + 3])]];
+    let sym = [[2.0 * dQ[0][0], dQ[0][1] + dQ[1][0]], [dQ[1][0] + dQ[0][1], 2.0 * dQ[1][1]]];
+    out.grad[o] += (sym[0][0] * L[0][0] + sym[0][1] * L[1][0]) as f32;
+    out.grad[o + 2] += (sym[1][0] * L[0][0] + sym[1][1] * L[1][0]) as f32;
+    out.grad[o + 3] += (sym[1][1] * L[1][1]) as f32;
+    let lr = f64::from(p[l.measurement_noise]);
+    out.grad[l.measurement_noise] += (2.0 * lr * dR) as f32;
+    out
+}

@@ -1,0 +1,186 @@
+//! The model file: safetensors with PyTorch-style tensor names and the
+//! model's metadata as JSON strings in the header (`docs/model-format.md`).
+//! Bytes in, bytes out: writing the file is the caller's business.
+
+use std::collections::HashMap;
+
+use safetensors::tensor::{Dtype, SafeTensors, TensorView};
+use thiserror::Error;
+
+use super::model::{DekfModel, ModelMeta};
+use super::params::Layout;
+
+/// Metadata key holding the JSON of [`ModelMeta`].
+pub const META_KEY: &str = "slidetrack.dekf";
+/// Metadata key holding the format version.
+pub const FORMAT_KEY: &str = "format";
+/// The format written.
+pub const FORMAT: &str = "slidetrack-dekf-1";
+
+/// A model file that cannot be read.
+#[derive(Debug, Error)]
+pub enum ModelFileError {
+    /// Not a safetensors file, or a corrupt one.
+    #[error("not a valid safetensors file: {0}")]
+    Safetensors(#[from] safetensors::SafeTensorError),
+    /// The header has no slidetrack metadata, or it does not parse.
+    #[error("missing or invalid `{META_KEY}` metadata: {detail}")]
+    Metadata {
+        /// What is wrong.
+        detail: String,
+    },
+    /// A tensor is missing or has the wrong shape or type.
+    #[error("tensor `{name}`: {detail}")]
+    Tensor {
+        /// The tensor.
+        name: String,
+        /// What is wrong.
+        detail: String,
+    },
+}
+
+/// Row-major values of an entry (weights transposed from column-major).
+fn export(model: &DekfModel, name: &str, shape: &[usize], offset: usize) -> Vec<f32> {
+    let p = &model.params;
+    if shape.len() == 2 && name.ends_with(".weight") {
+        let (out, inp) = (shape[0], shape[1]);
+        let mut v = vec![0.0f32; out * inp];
+        for o in 0..out {
+            for i in 0..inp {
+                v[o * inp + i] = p[offset + i * out + o];
+            }
+        }
+        v
+    } else {
+        let n: usize = shape.iter().product();
+        p[offset..offset + n].to_vec()
+    }
+}
+
+/// The model as safetensors bytes.
+pub fn to_bytes(model: &DekfModel) -> Result<Vec<u8>, ModelFileError> {
+    let values: Vec<(String, Vec<usize>, Vec<u8>)> = model
+        .layout
+        .entries
+        .iter()
+        .map(|e| {
+            let v = export(model, &e.name, &e.shape, e.offset);
+            (e.name.clone(), e.shape.clone(), v.iter().flat_map(|x| x.to_le_bytes()).collect())
+        })
+        .collect();
+    let views = values
+        .iter()
+        .map(|(name, shape, bytes)| Ok((name.as_str(), TensorView::new(Dtype::F32, shape.clone(), bytes)?)))
+        .collect::<Result<Vec<_>, safetensors::SafeTensorError>>()?;
+    let meta =
+        serde_json::to_string(&model.meta).map_err(|e| ModelFileError::Metadata { detail: e.to_string() })?;
+    let info = HashMap::from([(META_KEY.to_string(), meta), (FORMAT_KEY.to_string(), FORMAT.to_string())]);
+    Ok(safetensors::serialize(views, Some(info))?)
+}
+
+/// A model from safetensors bytes written by [`to_bytes`] (or by any tool that
+/// follows `docs/model-format.md`).
+pub fn from_bytes(bytes: &[u8]) -> Result<DekfModel, ModelFileError> {
+    let st = SafeTensors::deserialize(bytes)?;
+    let (_, header) = SafeTensors::read_metadata(bytes)?;
+    let meta_json = header
+        .metadata()
+        .as_ref()
+        .and_then(|m| m.get(META_KEY))
+        .ok_or_else(|| ModelFileError::Metadata { detail: "not in the header".into() })?;
+    let meta: ModelMeta =
+        serde_json::from_str(meta_json).map_err(|e| ModelFileError::Metadata { detail: e.to_string() })?;
+    if meta.channels.is_empty() || !(meta.dt_s.is_finite() && meta.dt_s > 0.0) || meta.decimation == 0 {
+        return Err(ModelFileError::Metadata {
+            detail: "needs channels, a positive dt_s and decimation".into(),
+        });
+    }
+    let layout = Layout::new(meta.channels.len());
+    let mut params = vec![0.0f32; layout.len];
+    for e in &layout.entries {
+        let bad = |detail: String| ModelFileError::Tensor { name: e.name.clone(), detail };
+        let t = st.tensor(&e.name).map_err(|_| bad("missing".into()))?;
+        if t.dtype() != Dtype::F32 {
+            return Err(bad(format!("dtype {:?}, expected F32", t.dtype())));
+        }
+        if t.shape() != e.shape.as_slice() {
+            return Err(bad(format!("shape {:?}, expected {:?}", t.shape(), e.shape)));
+        }
+        let v: Vec<f32> =
+            t.data().chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(bad("holds NaN or infinity".into()));
+        }
+        if e.shape.len() == 2 && e.name.ends_with(".weight") {
+            let (out, inp) = (e.shape[0], e.shape[1]);
+            for o in 0..out {
+                for i in 0..inp {
+                    params[e.offset + i * out + o] = v[o * inp + i];
+                }
+            }
+        } else {
+            params[e.range()].copy_from_slice(&v);
+        }
+    }
+    // L_Q is lower-triangular.
+    params[layout.process_noise + 1] = 0.0;
+    Ok(DekfModel { layout, params, meta })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dekf::Measurement;
+    use crate::derivative::DerivativeFilterConfig;
+    use rand::SeedableRng;
+
+    fn model() -> DekfModel {
+        let meta = ModelMeta {
+            dt_s: 0.03,
+            decimation: 3,
+            tactile_rate_hz: 100.0,
+            channels: vec!["thumb.x".into(), "thumb.y".into()],
+            measurement: Measurement::Derivative,
+            derivative_filter: DerivativeFilterConfig::default(),
+            state_units: ["cm".into(), "cm/s".into()],
+            p0_diag: [0.1, 0.1],
+            training: serde_json::json!({"note": "test"}),
+            software_version: "0".into(),
+        };
+        DekfModel::new(meta, &mut rand::rngs::StdRng::seed_from_u64(1))
+    }
+
+    #[test]
+    fn round_trip_keeps_every_parameter_and_the_metadata() {
+        let m = model();
+        let back = from_bytes(&to_bytes(&m).unwrap()).unwrap();
+        assert_eq!(back, m);
+    }
+
+    #[test]
+    fn weights_are_stored_row_major_out_by_in() {
+        let m = model();
+        let bytes = to_bytes(&m).unwrap();
+        let st = SafeTensors::deserialize(&bytes).unwrap();
+        let t = st.tensor("feature.encoder.linear.weight").unwrap();
+        assert_eq!(t.shape(), &[64, 2]);
+        let l = m.layout.feature.layers[0];
+        // Element [o=5, i=1] of the PyTorch weight.
+        let at = (5 * 2 + 1) * 4;
+        let v = f32::from_le_bytes(t.data()[at..at + 4].try_into().unwrap());
+        assert_eq!(v, m.params[l.weight + 64 + 5]);
+    }
+
+    #[test]
+    fn bad_files_are_refused_with_the_reason() {
+        assert!(matches!(from_bytes(b"garbage"), Err(ModelFileError::Safetensors(_))));
+        let m = model();
+        let empty: Vec<(&str, TensorView)> = Vec::new();
+        let no_meta = safetensors::serialize(empty, None).unwrap();
+        assert!(matches!(from_bytes(&no_meta), Err(ModelFileError::Metadata { .. })));
+        let mut bytes = to_bytes(&m).unwrap();
+        let n = bytes.len();
+        bytes.truncate(n - 10);
+        assert!(from_bytes(&bytes).is_err());
+    }
+}

@@ -1,0 +1,144 @@
+//! The dEKF running online or on replay (dEKF table): the derivative filter
+//! on every tactile scan, the dEKF on every `decimation`-th.
+#![allow(non_snake_case)]
+
+use super::ekf::{M2, correct, predict};
+use super::infer::FastNet;
+use super::model::{DekfModel, Measurement};
+use crate::derivative::DerivativeFilter;
+
+/// Smallest innovation variance `S` for which the filter corrects; below it
+/// the measurement carries no usable information and the step only predicts.
+pub const MIN_INNOVATION_VAR: f64 = 1e-12;
+
+/// One estimate of the dEKF.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DekfOutput {
+    /// Time of the scan the estimate belongs to (s).
+    pub t_s: f64,
+    /// The measurement the feature network read, before normalisation
+    /// (derivatives in counts/s, or counts for raw models), in model channel order.
+    pub measurement: Vec<f64>,
+    /// Mean `(p, v)` (cm, cm/s).
+    pub mean: [f64; 2],
+    /// Covariance (cm^2, cm^2/s, cm^2/s^2).
+    pub cov: M2,
+    /// True when the measurement was used (false: prediction only).
+    pub corrected: bool,
+}
+
+/// The dEKF with its derivative filter.
+pub struct DekfTracker {
+    motion: FastNet,
+    measurement_net: FastNet,
+    feature: FastNet,
+    Q: M2,
+    R: f64,
+    dt: f64,
+    decimation: usize,
+    kind: Measurement,
+    norm_mean: Vec<f32>,
+    norm_std: Vec<f32>,
+    p0: [f64; 2],
+    derivative: DerivativeFilter,
+    scans: u64,
+    mean: [f64; 2],
+    cov: M2,
+    buf: Vec<f32>,
+}
+
+impl DekfTracker {
+    /// A tracker for `model`, at `mu0 = 0`, `P0` from the model.
+    pub fn new(model: &DekfModel) -> DekfTracker {
+        let l = &model.layout;
+        let (m, s) = model.input_normalisation();
+        let p0 = model.meta.p0_diag;
+        DekfTracker {
+            motion: FastNet::new(&model.params, &l.motion),
+            measurement_net: FastNet::new(&model.params, &l.measurement),
+            feature: FastNet::new(&model.params, &l.feature),
+            Q: model.process_noise(),
+            R: model.measurement_noise(),
+            dt: model.meta.dt_s,
+            decimation: model.meta.decimation.max(1),
+            kind: model.meta.measurement,
+            norm_mean: m.to_vec(),
+            norm_std: s.to_vec(),
+            p0,
+            derivative: DerivativeFilter::new(model.meta.derivative_filter, l.channels),
+            scans: 0,
+            mean: [0.0; 2],
+            cov: [[p0[0], 0.0], [0.0, p0[1]]],
+            buf: vec![0.0; l.channels],
+        }
+    }
+
+    /// The current mean `(p, v)` (cm, cm/s) and covariance.
+    pub fn state(&self) -> ([f64; 2], M2) {
+        (self.mean, self.cov)
+    }
+
+    /// Feeds one tactile scan: baseline-subtracted values (counts) in the
+    /// model's channel order, at `t_s`. Returns an estimate on the first scan
+    /// (the initial state) and on every `decimation`-th scan after it. A
+    /// non-finite value is a missing sample: the derivative filter predicts
+    /// for that channel and, if a value the feature network reads is not
+    /// finite, the dEKF only predicts.
+    pub fn on_scan(&mut self, t_s: f64, zeroed: &[f64]) -> Option<DekfOutput> {
+        let derivatives = self.derivative.step(t_s, zeroed);
+        let measurement: Vec<f64> = match self.kind {
+            Measurement::Derivative => derivatives.to_vec(),
+            Measurement::Raw => zeroed.to_vec(),
+        };
+        let k = self.scans;
+        self.scans += 1;
+        if !k.is_multiple_of(self.decimation as u64) {
+            return None;
+        }
+        let corrected = if k == 0 { false } else { self.step(&measurement) };
+        Some(DekfOutput { t_s, measurement, mean: self.mean, cov: self.cov, corrected })
+    }
+
+    /// One dEKF step (prediction over `dt`, correction with `measurement`,
+    /// unnormalised, in model channel order). Returns whether it corrected.
+    pub fn step(&mut self, measurement: &[f64]) -> bool {
+        let [a, j0, j1] =
+            self.motion.eval(&[self.mean[0] as f32, self.mean[1] as f32, 1.0, 0.0, 0.0, 1.0], 3);
+        let pred =
+            predict(self.mean, &self.cov, f64::from(a), [f64::from(j0), f64::from(j1)], self.dt, &self.Q);
+        self.mean = pred.mean;
+        self.cov = pred.cov;
+        if !measurement.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        for (c, v) in measurement.iter().enumerate() {
+            self.buf[c] = (*v as f32 - self.norm_mean[c]) / self.norm_std[c];
+        }
+        let z = f64::from(self.feature.eval(&self.buf, 1)[0]);
+        let x = [pred.mean[0] as f32, pred.mean[1] as f32];
+        let [zhat, h0, h1] = self.measurement_net.eval(&[x[0], x[1], 1.0, 0.0, 0.0, 1.0], 3);
+        let H = [f64::from(h0), f64::from(h1)];
+        let S = H[0] * (pred.cov[0][0] * H[0] + pred.cov[0][1] * H[1])
+            + H[1] * (pred.cov[1][0] * H[0] + pred.cov[1][1] * H[1])
+            + self.R;
+        if S.is_nan() || S <= MIN_INNOVATION_VAR {
+            return false;
+        }
+        let c = correct(pred.mean, &pred.cov, z, f64::from(zhat), H, self.R);
+        if !(c.mean.iter().all(|v| v.is_finite()) && c.cov.iter().flatten().all(|v| v.is_finite())) {
+            return false;
+        }
+        self.mean = c.mean;
+        self.cov = c.cov;
+        true
+    }
+
+    /// Back to `mu0 = 0`, `P0`, with fresh derivative filters.
+    pub fn reset(&mut self) {
+        let cfg = *self.derivative.config();
+        self.derivative = DerivativeFilter::new(cfg, self.buf.len());
+        self.scans = 0;
+        self.mean = [0.0; 2];
+        self.cov = [[self.p0[0], 0.0], [0.0, self.p0[1]]];
+    }
+}

@@ -1,0 +1,21 @@
+//! The differentiable Extended Kalman filter of thesis Chapter 6: tracks the
+//! position and velocity of an object sliding in the hand from the
+//! derivative of the tactile signal.
+
+mod bptt;
+pub mod ekf;
+pub mod file;
+mod filter;
+mod infer;
+pub mod mlp;
+mod model;
+pub mod params;
+mod train;
+
+pub use bptt::{BatchGrad, Sequence, Window, batch_grad};
+pub use filter::{DekfOutput, DekfTracker, MIN_INNOVATION_VAR};
+pub use model::{DekfModel, Measurement, ModelMeta};
+pub use train::{EpochReport, Progress, Stage, TrainConfig, train};
+
+#[cfg(test)]
+mod tests;

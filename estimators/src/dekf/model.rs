@@ -1,0 +1,111 @@
+//! A dEKF model: the learned parameters and what is needed to use them.
+
+use serde::{Deserialize, Serialize};
+
+use super::ekf::{M2, q_from_cholesky};
+use super::params::Layout;
+use crate::derivative::DerivativeFilterConfig;
+
+/// What the feature network reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Measurement {
+    /// The derivative of the baseline-subtracted tactile signal (eq. 6.2).
+    Derivative,
+    /// The baseline-subtracted signal itself (the ablation of Table 6.3).
+    Raw,
+}
+
+impl Measurement {
+    /// `derivative` or `raw`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Measurement::Derivative => "derivative",
+            Measurement::Raw => "raw",
+        }
+    }
+}
+
+/// Everything about a model besides its tensors (the model file's metadata).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelMeta {
+    /// Time between filter steps, `Delta_t` of (6.3) (s).
+    pub dt_s: f64,
+    /// The filter steps on every `decimation`-th tactile scan.
+    pub decimation: usize,
+    /// Tactile scan rate the model was trained at (Hz).
+    pub tactile_rate_hz: f64,
+    /// Input channels of the feature network, in order (`thumb.x`, ...).
+    pub channels: Vec<String>,
+    /// What the feature network reads.
+    pub measurement: Measurement,
+    /// The derivative filter that makes the measurement.
+    pub derivative_filter: DerivativeFilterConfig,
+    /// Units of the state `(p, v)`.
+    pub state_units: [String; 2],
+    /// Initial covariance `P0 = diag(..)` (cm^2, cm^2/s^2).
+    pub p0_diag: [f64; 2],
+    /// How the model was trained (configuration, data, losses), free-form JSON.
+    pub training: serde_json::Value,
+    /// The slidetrack version that wrote the model.
+    pub software_version: String,
+}
+
+/// A dEKF model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DekfModel {
+    /// Tensor layout.
+    pub layout: Layout,
+    /// The flat parameter vector (see [`super::params`]).
+    pub params: Vec<f32>,
+    /// Metadata.
+    pub meta: ModelMeta,
+}
+
+impl DekfModel {
+    /// A fresh (untrained) model.
+    pub fn new(meta: ModelMeta, rng: &mut impl rand::Rng) -> DekfModel {
+        let layout = Layout::new(meta.channels.len());
+        let params = layout.init(rng);
+        DekfModel { layout, params, meta }
+    }
+
+    /// `Q = L_Q L_Q^T` (cm^2, cm^2/s^2).
+    pub fn process_noise(&self) -> M2 {
+        let o = self.layout.process_noise;
+        let p = &self.params;
+        q_from_cholesky(f64::from(p[o]), f64::from(p[o + 2]), f64::from(p[o + 3]))
+    }
+
+    /// `R = L_R^2`.
+    pub fn measurement_noise(&self) -> f64 {
+        let l = f64::from(self.params[self.layout.measurement_noise]);
+        l * l
+    }
+
+    /// The feature normalisation: `(mean, std)` per channel.
+    pub fn input_normalisation(&self) -> (&[f32], &[f32]) {
+        let l = &self.layout;
+        (
+            &self.params[l.input_mean..l.input_mean + l.channels],
+            &self.params[l.input_std..l.input_std + l.channels],
+        )
+    }
+
+    /// Sets the feature normalisation; a zero or non-finite std becomes 1.
+    pub fn set_input_normalisation(&mut self, mean: &[f32], std: &[f32]) {
+        let l = self.layout.clone();
+        for c in 0..l.channels {
+            self.params[l.input_mean + c] = if mean[c].is_finite() { mean[c] } else { 0.0 };
+            self.params[l.input_std + c] = if std[c].is_finite() && std[c] > 0.0 { std[c] } else { 1.0 };
+        }
+    }
+
+    /// Normalises one measurement vector in place: `(x - mean) / std`.
+    pub fn normalise(&self, values: &mut [f32]) {
+        let (mean, std) = self.input_normalisation();
+        for ((v, m), s) in values.iter_mut().zip(mean).zip(std) {
+            *v = (*v - m) / s;
+        }
+    }
+}

@@ -1,0 +1,236 @@
+//! End-to-end training (Sec. 2.5.3, 6.2.4): backpropagation through time over
+//! subsequences of increasing length, Adam, loss (2.149).
+
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use super::bptt::{BatchGrad, Sequence, Window, batch_grad};
+use super::model::DekfModel;
+
+/// One stage of the schedule: subsequences of `length` steps for `epochs` epochs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Stage {
+    /// Subsequence length `T_s` (steps).
+    pub length: usize,
+    /// Epochs at this length.
+    pub epochs: usize,
+}
+
+/// Training settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    /// The schedule; the thesis: lengths 2, 4, 8, 16, 32 with 5 epochs each.
+    pub schedule: Vec<Stage>,
+    /// Subsequences per batch `B`.
+    pub batch_size: usize,
+    /// Adam's step size.
+    pub learning_rate: f64,
+    /// Adam's `beta1`, `beta2`, `epsilon`.
+    pub adam: [f64; 3],
+    /// Largest global gradient norm; larger gradients are scaled down.
+    pub clip_norm: f64,
+    /// Seed of the shuffling and of the initial-state draws.
+    pub seed: u64,
+    /// Worker threads (0: as many as the machine has).
+    pub threads: usize,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        TrainConfig {
+            schedule: [2, 4, 8, 16, 32].into_iter().map(|length| Stage { length, epochs: 5 }).collect(),
+            batch_size: 32,
+            learning_rate: 1e-3,
+            adam: [0.9, 0.999, 1e-8],
+            clip_norm: 10.0,
+            seed: 1,
+            threads: 0,
+        }
+    }
+}
+
+/// Progress after a batch.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Progress {
+    /// Stage index in the schedule.
+    pub stage: usize,
+    /// Its subsequence length.
+    pub length: usize,
+    /// Epoch within the stage (from 0).
+    pub epoch: usize,
+    /// Batches done in this epoch, and in it in all.
+    pub batch: (usize, usize),
+    /// Batches done since the start, and in the whole training.
+    pub overall: (usize, usize),
+    /// Running state RMSE of this epoch, position (cm) and velocity (cm/s).
+    pub rmse: [f64; 2],
+}
+
+/// The outcome of one epoch.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpochReport {
+    /// Subsequence length.
+    pub length: usize,
+    /// Epoch number from the start of training (from 1).
+    pub epoch: usize,
+    /// Mean loss (2.149) over the epoch.
+    pub loss: f64,
+    /// State RMSE over the epoch, position (cm) and velocity (cm/s).
+    pub rmse: [f64; 2],
+    /// Batches skipped because their loss or gradient was not finite.
+    pub skipped_batches: usize,
+}
+
+/// Adam with bias correction on the trainable elements.
+struct Adam {
+    m: Vec<f32>,
+    v: Vec<f32>,
+    t: i32,
+}
+
+impl Adam {
+    fn step(&mut self, params: &mut [f32], grad: &[f32], mask: &[bool], lr: f64, [b1, b2, eps]: [f64; 3]) {
+        self.t += 1;
+        let c1 = 1.0 - b1.powi(self.t);
+        let c2 = 1.0 - b2.powi(self.t);
+        for i in 0..params.len() {
+            if !mask[i] {
+                continue;
+            }
+            let g = f64::from(grad[i]);
+            let m = b1 * f64::from(self.m[i]) + (1.0 - b1) * g;
+            let v = b2 * f64::from(self.v[i]) + (1.0 - b2) * g * g;
+            self.m[i] = m as f32;
+            self.v[i] = v as f32;
+            params[i] -= (lr * (m / c1) / ((v / c2).sqrt() + eps)) as f32;
+        }
+    }
+}
+
+/// The windows of one epoch: every sequence cut into consecutive
+/// subsequences of `length` steps, shuffled.
+fn epoch_windows(data: &[Sequence], length: usize, rng: &mut ChaCha8Rng) -> Vec<(usize, usize)> {
+    let mut w: Vec<(usize, usize)> = data
+        .iter()
+        .enumerate()
+        .flat_map(|(i, s)| (0..s.len().saturating_sub(length)).step_by(length).map(move |t0| (i, t0)))
+        .collect();
+    w.shuffle(rng);
+    w
+}
+
+/// Gradient of a batch, split over `threads` shards; shard results are
+/// summed in order, so the result does not depend on scheduling.
+fn parallel_grad(
+    model: &DekfModel,
+    data: &[Sequence],
+    windows: &[Window],
+    length: usize,
+    threads: usize,
+) -> BatchGrad {
+    use rayon::prelude::*;
+    let shard = windows.len().div_ceil(threads.max(1)).max(1);
+    let parts: Vec<BatchGrad> =
+        windows.par_chunks(shard).map(|w| batch_grad(model, data, w, length)).collect();
+    let mut total = BatchGrad {
+        squared_error: 0.0,
+        squared_error_pv: [0.0; 2],
+        states: 0,
+        grad: vec![0.0; model.params.len()],
+    };
+    for p in parts {
+        total.squared_error += p.squared_error;
+        total.squared_error_pv[0] += p.squared_error_pv[0];
+        total.squared_error_pv[1] += p.squared_error_pv[1];
+        total.states += p.states;
+        for (t, g) in total.grad.iter_mut().zip(&p.grad) {
+            *t += g;
+        }
+    }
+    total
+}
+
+/// Trains `model` on `data` (sequences at the filter rate, measurements
+/// already normalised with the model's normalisation). Calls `progress`
+/// after every batch; returns one report per epoch.
+pub fn train(
+    model: &mut DekfModel,
+    data: &[Sequence],
+    cfg: &TrainConfig,
+    progress: &mut dyn FnMut(&Progress),
+) -> Vec<EpochReport> {
+    let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+    let mask = model.layout.trainable_mask();
+    let mut adam = Adam { m: vec![0.0; model.params.len()], v: vec![0.0; model.params.len()], t: 0 };
+    let p0 = model.meta.p0_diag;
+    let total_batches: usize = cfg
+        .schedule
+        .iter()
+        .map(|s| {
+            s.epochs * epoch_windows(data, s.length, &mut rng.clone()).len().div_ceil(cfg.batch_size.max(1))
+        })
+        .sum();
+    let mut done = 0;
+    let mut reports = Vec::new();
+    for (stage, st) in cfg.schedule.iter().enumerate() {
+        for epoch in 0..st.epochs {
+            let windows = epoch_windows(data, st.length, &mut rng);
+            let batches = windows.len().div_ceil(cfg.batch_size.max(1));
+            let (mut sq, mut states, mut skipped) = ([0.0f64; 2], 0usize, 0usize);
+            for (b, chunk) in windows.chunks(cfg.batch_size.max(1)).enumerate() {
+                let batch: Vec<Window> = chunk
+                    .iter()
+                    .map(|&(sequence, start)| {
+                        let truth = data[sequence].truth[start];
+                        let n0: f64 = StandardNormal.sample(&mut rng);
+                        let n1: f64 = StandardNormal.sample(&mut rng);
+                        Window {
+                            sequence,
+                            start,
+                            mean0: [truth[0] + n0 * p0[0].sqrt(), truth[1] + n1 * p0[1].sqrt()],
+                        }
+                    })
+                    .collect();
+                let mut g = parallel_grad(model, data, &batch, st.length, threads);
+                // Loss (2.149): mean over steps, batch and state components.
+                let scale = 1.0 / (st.length * batch.len() * 2) as f64;
+                let norm: f64 =
+                    g.grad.iter().map(|x| f64::from(*x) * f64::from(*x)).sum::<f64>().sqrt() * scale;
+                if !(g.squared_error.is_finite() && norm.is_finite()) {
+                    skipped += 1;
+                } else {
+                    let clip = if norm > cfg.clip_norm { cfg.clip_norm / norm } else { 1.0 };
+                    g.grad.iter_mut().for_each(|x| *x = (f64::from(*x) * scale * clip) as f32);
+                    adam.step(&mut model.params, &g.grad, &mask, cfg.learning_rate, cfg.adam);
+                    sq[0] += g.squared_error_pv[0];
+                    sq[1] += g.squared_error_pv[1];
+                    states += g.states;
+                }
+                done += 1;
+                let rmse = [(sq[0] / states.max(1) as f64).sqrt(), (sq[1] / states.max(1) as f64).sqrt()];
+                progress(&Progress {
+                    stage,
+                    length: st.length,
+                    epoch,
+                    batch: (b + 1, batches),
+                    overall: (done, total_batches),
+                    rmse,
+                });
+            }
+            let n = states.max(1) as f64;
+            reports.push(EpochReport {
+                length: st.length,
+                epoch: reports.len() + 1,
+                loss: (sq[0] + sq[1]) / (2.0 * n),
+                rmse: [(sq[0] / n).sqrt(), (sq[1] / n).sqrt()],
+                skipped_batches: skipped,
+            });
+        }
+    }
+    reports
+}

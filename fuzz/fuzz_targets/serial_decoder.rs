@@ -1,0 +1,28 @@
+//! Arbitrary bytes, pushed in pieces of arbitrary sizes, into the serial
+//! decoder and the scan assembler: no panic, bounded buffer, consistent counters.
+
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use slidetrack_drivers::hw::scan::{ModuleScanAssembler, default_finger_taxels};
+use slidetrack_drivers::hw::serial_protocol::{DECODER_CAPACITY, SerialDecoder, SerialEvent};
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&chunk, bytes)) = data.split_first() else { return };
+    let chunk = usize::from(chunk).max(1);
+    let mut decoder = SerialDecoder::new();
+    let mut assembler = ModuleScanAssembler::new(&default_finger_taxels());
+    let mut frames = 0u64;
+    for piece in bytes.chunks(chunk) {
+        decoder.feed(piece, |event| {
+            if let SerialEvent::Frame(frame) = event {
+                frames += 1;
+                assembler.push(&frame);
+            }
+        });
+        assert!(decoder.buffered() <= DECODER_CAPACITY);
+    }
+    let c = decoder.counters();
+    assert_eq!(c.frames, frames);
+    assert!(c.bytes_skipped + decoder.buffered() as u64 <= bytes.len() as u64);
+});

@@ -1,0 +1,124 @@
+//! `slidetrack label`: ground truth from the ArUco marker, written into each session.
+
+use anyhow::{Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use slidetrack_calibration::ground_truth::{AxisSource, default_params, gate, thesis_params};
+use slidetrack_calibration::label::{LabelOptions, LabelReport, label_session};
+use slidetrack_estimators::cv_smoother::CvSmootherParams;
+
+use crate::cli::{AxisArg, LabelArgs};
+
+pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
+    let options = LabelOptions {
+        params: params(args)?,
+        axis: match args.axis {
+            AxisArg::Recorded => AxisSource::Recorded,
+            AxisArg::Config => AxisSource::Config,
+            AxisArg::Estimate => AxisSource::Estimate,
+        },
+        recover: args.recover,
+        dry_run: args.dry_run,
+    };
+    let bar = if quiet || args.files.len() < 2 {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(args.files.len() as u64)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("labelling [{bar:30}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let mut summaries = Vec::new();
+    let mut failures = Vec::new();
+    for file in &args.files {
+        bar.set_message(file.display().to_string());
+        match label_session(file, &options) {
+            Ok(report) => {
+                if args.json {
+                    summaries.push(to_json(&report));
+                } else {
+                    bar.suspend(|| println!("{}", to_text(&report)));
+                }
+            }
+            Err(e) if args.files.len() == 1 => return Err(e.into()),
+            Err(e) => {
+                bar.suspend(|| eprintln!("error: {}", crate::one_line(&e.into())));
+                failures.push(file.display().to_string());
+            }
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summaries)?);
+    }
+    if !failures.is_empty() {
+        bail!(
+            "{} of {} files could not be labelled (left unchanged): {}",
+            failures.len(),
+            args.files.len(),
+            failures.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// The defaults with the command line's overrides, checked.
+fn params(args: &LabelArgs) -> Result<CvSmootherParams> {
+    let mut p = if args.thesis { thesis_params() } else { default_params() };
+    let positive = |name: &str, v: f64| -> Result<f64> {
+        if v.is_finite() && v > 0.0 { Ok(v) } else { bail!("--{name} must be a positive number, got {v}") }
+    };
+    if let Some(q) = args.q_position {
+        p.q_position_m2_per_s = positive("q-position", q)?;
+    }
+    if let Some(q) = args.q_velocity {
+        p.q_velocity_m2_per_s3 = positive("q-velocity", q)?;
+    }
+    if let Some(r) = args.r {
+        p.r_m2 = positive("r", r)?;
+    }
+    if let Some(g) = args.gate {
+        p.gate = gate(Some(positive("gate", g)?));
+    }
+    if args.no_gate {
+        p.gate = None;
+    }
+    Ok(p)
+}
+
+fn to_text(r: &LabelReport) -> String {
+    let rmse = r.rmse.map_or(String::new(), |e| {
+        format!("; vs /sim/truth: RMSE {:.3} mm, {:.2} mm/s", e.position_m * 1e3, e.velocity_mps * 1e3)
+    });
+    let action = if r.written { "labelled" } else { "computed (dry run, not written)" };
+    format!(
+        "{}: {} scans {action}; {} camera frames, {} marker positions ({} missing), {} outliers rejected{rmse}",
+        r.path.display(),
+        r.samples,
+        r.frames,
+        r.detections,
+        r.missing_detections,
+        r.rejected_outliers
+    )
+}
+
+fn to_json(r: &LabelReport) -> serde_json::Value {
+    json!({
+        "file": r.path.display().to_string(),
+        "samples": r.samples,
+        "camera_frames": r.frames,
+        "marker_positions": r.detections,
+        "missing_detections": r.missing_detections,
+        "rejected_outliers": r.rejected_outliers,
+        "written": r.written,
+        "axis_in_camera": r.axis_in_camera,
+        "rmse": r.rmse.map(|e| json!({
+            "position_m": e.position_m,
+            "velocity_mps": e.velocity_mps,
+            "samples": e.samples,
+        })),
+    })
+}

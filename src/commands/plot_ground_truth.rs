@@ -1,0 +1,143 @@
+//! `plot --what ground-truth`: the marker position, its Kalman-filtered and
+//! its smoothed versions, and the velocity by finite differences, filtered
+//! and smoothed (thesis Fig. 6.5), up to the release of the hand (after it
+//! the object falls out of the hand). The filtered track is recomputed from
+//! the stored measurements with the parameters in the channel metadata.
+
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use slidetrack_calibration::ground_truth::{params_from_record, smooth_ground_truth};
+use slidetrack_drivers::TimeNs;
+use slidetrack_drivers::session::{
+    ChannelMessage, GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding, ProtocolEvent,
+    ReadOptions, SessionError, SessionInfo, SimTruth, read_channel,
+};
+
+use crate::plot::{PALETTE, Panel, Series};
+
+const GREY: plotters::style::RGBColor = plotters::style::RGBColor(110, 110, 110);
+
+/// The two panels: position (cm) and velocity (cm/s).
+pub fn panels(file: &Path, opts: ReadOptions) -> Result<Vec<Panel>> {
+    let sliding = match read_channel::<GroundTruthSliding>(file, opts) {
+        Err(SessionError::NoSuchTopic { .. }) => {
+            bail!(
+                "{} has no ground truth yet: run `slidetrack label {}` first",
+                file.display(),
+                file.display()
+            )
+        }
+        other => other?,
+    };
+    let measured = read_channel::<GroundTruthMeasurement>(file, opts)?;
+    let info = SessionInfo::read(file, opts)?;
+    let record = info
+        .channels
+        .iter()
+        .find(|c| c.topic == GroundTruthSliding::TOPIC)
+        .and_then(|c| GroundTruthParameters::from_channel_metadata(&c.metadata))
+        .context("/ground_truth/sliding has no `parameters` metadata")?
+        .context("the `parameters` metadata of /ground_truth/sliding does not decode")?;
+    let params = params_from_record(&record);
+    let scans: Vec<TimeNs> = sliding.iter().map(|(t, _)| *t).collect();
+    let positions: Vec<(TimeNs, f64)> = measured.iter().map(|(t, m)| (*t, m.position)).collect();
+    let filtered = smooth_ground_truth(&scans, &positions, &params)
+        .context("cannot recompute the filtered track from the stored measurements")?
+        .filtered();
+    let mut truth = match read_channel::<SimTruth>(file, opts) {
+        Err(SessionError::NoSuchTopic { .. }) => Vec::new(),
+        other => other?,
+    };
+    let events = match read_channel::<ProtocolEvent>(file, opts) {
+        Err(SessionError::NoSuchTopic { .. }) => Vec::new(),
+        other => other?,
+    };
+    let end =
+        events.iter().find(|(_, e)| e.phase == "release" || e.abort).map_or(TimeNs(u64::MAX), |(t, _)| *t);
+    let (mut sliding, mut measured, mut filtered) = (sliding, measured, filtered);
+    sliding.retain(|(t, _)| *t <= end);
+    measured.retain(|(t, _)| *t <= end);
+    filtered.retain(|(t, _)| *t <= end);
+    truth.retain(|(t, _)| *t <= end);
+
+    let secs = |t: &TimeNs| t.as_secs_f64();
+    let accepted: Vec<&(TimeNs, GroundTruthMeasurement)> =
+        measured.iter().filter(|(_, m)| !m.rejected).collect();
+    let rejected: Vec<(f64, f64)> =
+        measured.iter().filter(|(_, m)| m.rejected).map(|(t, m)| (secs(t), m.position * 100.0)).collect();
+    let mut position = vec![
+        Series::dots(
+            "ArUco marker",
+            PALETTE[3],
+            accepted.iter().map(|(t, m)| (secs(t), m.position * 100.0)).collect(),
+        ),
+        Series::line(
+            "Kalman filter",
+            PALETTE[1],
+            filtered.iter().map(|(t, g)| (secs(t), g.position * 100.0)).collect(),
+        ),
+        Series::line(
+            "RTS smoother (ground truth)",
+            PALETTE[0],
+            sliding.iter().map(|(t, g)| (secs(t), g.position * 100.0)).collect(),
+        ),
+    ];
+    if !rejected.is_empty() {
+        position.push(Series::dots("rejected outliers", PALETTE[4], rejected));
+    }
+    // Finite differences of consecutive accepted marker positions, at the midpoints.
+    let differences: Vec<(f64, f64)> = accepted
+        .windows(2)
+        .map(|w| {
+            let (t0, t1) = (secs(&w[0].0), secs(&w[1].0));
+            ((t0 + t1) / 2.0, (w[1].1.position - w[0].1.position) / (t1 - t0) * 100.0)
+        })
+        .collect();
+    let mut velocity = vec![
+        Series::dots("finite differences", PALETTE[3], differences),
+        Series::line(
+            "Kalman filter",
+            PALETTE[1],
+            filtered.iter().map(|(t, g)| (secs(t), g.velocity * 100.0)).collect(),
+        ),
+        Series::line(
+            "RTS smoother (ground truth)",
+            PALETTE[0],
+            sliding.iter().map(|(t, g)| (secs(t), g.velocity * 100.0)).collect(),
+        ),
+    ];
+    if let (Some(first), false) = (accepted.first(), truth.is_empty()) {
+        // The simulator's position, shifted to 0 at the first marker sample as the marker's is.
+        let k = truth.partition_point(|(t, _)| *t < first.0).min(truth.len() - 1);
+        let origin = truth[k].1.position;
+        position.insert(
+            0,
+            Series::line(
+                "simulator truth",
+                GREY,
+                truth.iter().map(|(t, s)| (secs(t), (s.position - origin) * 100.0)).collect(),
+            ),
+        );
+        velocity.insert(
+            0,
+            Series::line(
+                "simulator truth",
+                GREY,
+                truth.iter().map(|(t, s)| (secs(t), s.velocity * 100.0)).collect(),
+            ),
+        );
+    }
+    Ok(vec![
+        Panel {
+            title: "object position along the sliding axis".into(),
+            y_label: "position (cm)".into(),
+            series: position,
+        },
+        Panel {
+            title: "object velocity along the sliding axis".into(),
+            y_label: "velocity (cm/s)".into(),
+            series: velocity,
+        },
+    ])
+}

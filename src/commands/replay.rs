@@ -1,0 +1,142 @@
+//! `slidetrack replay`: run a dEKF model over a recorded session and write a
+//! copy of it with the model's input and estimates.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use slidetrack_drivers::session::{
+    DERIVATIVE_CHANNELS_KEY, DekfEstimate, NewChannel, ReadOptions, SlidingEstimate, TactileDerivative,
+    rewrite_session,
+};
+
+use crate::dataset::{TruthSource, load};
+use crate::dekf_run::{CM, load_model, run};
+use crate::plot::{PALETTE, Panel, Series, draw_stacked};
+
+/// Arguments of `replay`.
+#[derive(Debug, Args, Clone)]
+pub struct ReplayArgs {
+    /// Session file (.mcap).
+    pub file: PathBuf,
+    /// Model file (.safetensors).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Output session: a copy of FILE with `/tactile/derivative` and `/estimate/dekf`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also plot estimates against the truth (Fig. 6.9).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Replace OUT if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+pub fn run_cmd(args: &ReplayArgs) -> Result<()> {
+    let model = load_model(&args.model)?;
+    let data = load(&args.file, None)?;
+    let outputs = run(&model, &data)?;
+    if args.out.exists() && !args.overwrite {
+        bail!("{} already exists; pass --overwrite to replace it", args.out.display());
+    }
+    if std::fs::canonicalize(&args.file).ok() == std::fs::canonicalize(&args.out).ok() {
+        bail!("--out must differ from the input file");
+    }
+    let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    let meta = BTreeMap::from([
+        (DERIVATIVE_CHANNELS_KEY.to_string(), serde_json::to_string(&model.meta.channels)?),
+        ("model".to_string(), model_name.clone()),
+        ("measurement".to_string(), model.meta.measurement.name().to_string()),
+    ]);
+    let mut derivative = NewChannel::of::<TactileDerivative>(meta);
+    let mut estimate = NewChannel::of::<DekfEstimate>(BTreeMap::from([("model".to_string(), model_name)]));
+    for (t, o) in &outputs {
+        derivative.push_json(*t, &TactileDerivative { values: o.measurement.clone() })?;
+        let c = o.cov;
+        let s = 1.0 / CM;
+        estimate.push_json(
+            *t,
+            &DekfEstimate(SlidingEstimate {
+                position: o.mean[0] * s,
+                velocity: o.mean[1] * s,
+                covariance: [[c[0][0] * s * s, c[0][1] * s * s], [c[1][0] * s * s, c[1][1] * s * s]],
+            }),
+        )?;
+    }
+    let tmp = args.out.with_extension("mcap.partial");
+    std::fs::copy(&args.file, &tmp)
+        .with_context(|| format!("cannot copy {} to {}", args.file.display(), tmp.display()))?;
+    let result = rewrite_session(&tmp, ReadOptions::default(), &|_| false, vec![derivative, estimate]);
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e.into());
+    }
+    std::fs::rename(&tmp, &args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!("{}: {} dEKF steps", args.out.display(), outputs.len());
+    if let Some(plot) = &args.plot {
+        plot_replay(args, &outputs)?;
+        println!("{}", plot.display());
+    }
+    Ok(())
+}
+
+/// Estimated position and velocity against the ground truth and the
+/// simulator's truth when present (Fig. 6.9).
+fn plot_replay(
+    args: &ReplayArgs,
+    outputs: &[(slidetrack_drivers::TimeNs, slidetrack_estimators::dekf::DekfOutput)],
+) -> Result<()> {
+    let Some(out) = &args.plot else { return Ok(()) };
+    let t0 = outputs.first().map_or(0.0, |(t, _)| t.as_secs_f64());
+    let mut pos = vec![Series::line(
+        "dEKF estimate",
+        PALETTE[3],
+        outputs.iter().map(|(t, o)| (t.as_secs_f64(), o.mean[0])).collect(),
+    )];
+    let mut vel = vec![Series::line(
+        "dEKF estimate",
+        PALETTE[3],
+        outputs.iter().map(|(t, o)| (t.as_secs_f64(), o.mean[1])).collect(),
+    )];
+    for (source, label, colour) in [
+        (TruthSource::GroundTruth, "ground truth", PALETTE[0]),
+        (TruthSource::Sim, "simulator truth", PALETTE[2]),
+    ] {
+        if let Ok(d) = load(&args.file, Some(source)) {
+            let truth = d.truth.unwrap_or_default();
+            let start = d.times.iter().position(|t| t.as_secs_f64() >= t0).unwrap_or(0);
+            let origin = truth.get(start).map_or(0.0, |x| x[0]);
+            pos.insert(
+                0,
+                Series::line(
+                    label,
+                    colour,
+                    d.times
+                        .iter()
+                        .zip(&truth)
+                        .map(|(t, x)| (t.as_secs_f64(), (x[0] - origin) * CM))
+                        .collect(),
+                ),
+            );
+            vel.insert(
+                0,
+                Series::line(
+                    label,
+                    colour,
+                    d.times.iter().zip(&truth).map(|(t, x)| (t.as_secs_f64(), x[1] * CM)).collect(),
+                ),
+            );
+        }
+    }
+    let name = args.file.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    draw_stacked(
+        out,
+        &format!("{name}: dEKF replay"),
+        &[
+            Panel { title: "position along the sliding axis".into(), y_label: "cm".into(), series: pos },
+            Panel { title: "velocity along the sliding axis".into(), y_label: "cm/s".into(), series: vel },
+        ],
+    )
+}

@@ -1,0 +1,171 @@
+//! Turning `--input`, `--model`, `--measurements` and `--init` into a frame
+//! source, a measurement source, a model and a starting pose.
+
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use slidetrack_drivers::CameraIntrinsics;
+use slidetrack_drivers::session::{ReadOptions, SessionInfo};
+use slidetrack_drivers::sim::rgbd::SimObjectKind;
+use slidetrack_vision::ObjectModel;
+use slidetrack_vision::input::{RgbdSample, RgbdSource, SessionRgbd, YCB_CLASSES, YcbDirectory};
+use slidetrack_vision::sources::{
+    FileSequence, MeasurementSource, SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
+};
+
+use super::{InitArg, MeasurementsArg};
+
+/// Everything a tracking run needs.
+pub struct Prepared {
+    /// The frames.
+    pub source: Box<dyn RgbdSource>,
+    /// Masks and poses.
+    pub measurements: Box<dyn MeasurementSource>,
+    /// The object model.
+    pub model: ObjectModel,
+    /// The intrinsics of the frames.
+    pub intrinsics: CameraIntrinsics,
+    /// Where the tracker starts, if not from a measurement.
+    pub initial_pose: Option<Isometry3<f64>>,
+}
+
+/// Options of an input.
+pub struct InputOptions<'a> {
+    pub model: &'a str,
+    pub model_scale: f64,
+    pub object: Option<&'a str>,
+    pub measurements: MeasurementsArg,
+    pub init: InitArg,
+    pub recover: bool,
+}
+
+/// Opens `input` (a session or a YCB-Video-style directory).
+pub fn prepare(input: &Path, o: &InputOptions<'_>) -> Result<Prepared> {
+    let options = ReadOptions { recover: o.recover };
+    let (source, model, input_measurements): (Box<dyn RgbdSource>, ObjectModel, Box<dyn MeasurementSource>) =
+        if input.is_dir() {
+            let model = load_model(o.model, o.model_scale, None)?;
+            let class = ycb_class(o.object, o.model)?;
+            let dir = YcbDirectory::open(input, class, None)?;
+            let has_files = input.join("masks.csv").exists() || input.join("poses.csv").exists();
+            let measurements: Box<dyn MeasurementSource> = if has_files {
+                Box::new(FileSequence::open(input)?)
+            } else {
+                Box::new(TruthSource { masks: true, poses: false })
+            };
+            (Box::new(dir), model, measurements)
+        } else if input.is_file() {
+            let model = load_model(o.model, o.model_scale, Some((input, options)))?;
+            let source = SessionRgbd::open(input, options)?;
+            let measurements = Box::new(SessionMeasurements::open(input, options)?);
+            (Box::new(source), model, measurements)
+        } else {
+            bail!("{}: no such session file or directory", input.display());
+        };
+    let measurements: Box<dyn MeasurementSource> = match o.measurements {
+        MeasurementsArg::Input => input_measurements,
+        MeasurementsArg::Network => Box::new(SlowNetwork::new(SlowNetworkConfig::default())),
+        MeasurementsArg::Truth => Box::new(TruthSource { masks: true, poses: true }),
+    };
+    let intrinsics = source.intrinsics().clone();
+    let mut source = Peeked::new(source);
+    let initial_pose = match o.init {
+        InitArg::Measurement => None,
+        InitArg::Truth | InitArg::Perturbed => {
+            let first = source.peek()?.and_then(|s| s.truth.map(|t| t.camera_from_object));
+            let truth = first.with_context(|| {
+                format!("{}: the first frame has no true pose for --init", input.display())
+            })?;
+            Some(if o.init == InitArg::Perturbed { perturbed(&truth) } else { truth })
+        }
+    };
+    Ok(Prepared { source: Box::new(source), measurements, model, intrinsics, initial_pose })
+}
+
+/// 5 cm along each axis and 10 degrees on each Euler angle away (Sec. 4.2.3).
+pub fn perturbed(pose: &Isometry3<f64>) -> Isometry3<f64> {
+    let (r, p, y) = pose.rotation.euler_angles();
+    let d = 10f64.to_radians();
+    Isometry3::from_parts(
+        Translation3::from(pose.translation.vector + Vector3::new(0.05, 0.05, 0.05)),
+        UnitQuaternion::from_euler_angles(r + d, p + d, y + d),
+    )
+}
+
+/// The model: a file, or `sim` for the object of a simulated session.
+fn load_model(spec: &str, scale: f64, session: Option<(&Path, ReadOptions)>) -> Result<ObjectModel> {
+    if spec == "sim" {
+        let (path, options) = session.context("--model sim needs a simulated session as --input")?;
+        let info = SessionInfo::read(path, options)?;
+        let object = info.session_metadata().map(|m| m.object).unwrap_or_default();
+        let kind = SimObjectKind::from_name(&object).with_context(|| {
+            format!(
+                "{}: not a simulated RGB-D session (object '{object}'); give --model FILE",
+                path.display()
+            )
+        })?;
+        return Ok(ObjectModel::from_mesh(kind.name(), kind.mesh()));
+    }
+    if let Some(kind) = SimObjectKind::from_name(spec) {
+        return Ok(ObjectModel::from_mesh(kind.name(), kind.mesh()));
+    }
+    Ok(ObjectModel::load(Path::new(spec), scale)?)
+}
+
+/// The YCB class index from `--object` or the model's directory name.
+fn ycb_class(object: Option<&str>, model: &str) -> Result<u32> {
+    let name = match object {
+        Some(o) => o.to_string(),
+        None => Path::new(model)
+            .parent()
+            .and_then(|p| p.file_name())
+            .and_then(|n| n.to_str())
+            .map(str::to_string)
+            .context("give the YCB-Video class with --object (name like 009_gelatin_box, or its index)")?,
+    };
+    if let Ok(i) = name.parse::<u32>()
+        && (1..=YCB_CLASSES.len() as u32).contains(&i)
+    {
+        return Ok(i);
+    }
+    YCB_CLASSES.iter().position(|c| *c == name).map(|i| i as u32 + 1).with_context(|| {
+        format!("'{name}' is not a YCB-Video class (use --object, e.g. 009_gelatin_box or 8)")
+    })
+}
+
+/// A source whose first frame can be looked at before tracking.
+struct Peeked {
+    inner: Box<dyn RgbdSource>,
+    first: Option<Option<RgbdSample>>,
+}
+
+impl Peeked {
+    fn new(inner: Box<dyn RgbdSource>) -> Peeked {
+        Peeked { inner, first: None }
+    }
+
+    fn peek(&mut self) -> Result<Option<&RgbdSample>> {
+        if self.first.is_none() {
+            self.first = Some(self.inner.next_frame()?);
+        }
+        Ok(self.first.as_ref().and_then(Option::as_ref))
+    }
+}
+
+impl RgbdSource for Peeked {
+    fn intrinsics(&self) -> &CameraIntrinsics {
+        self.inner.intrinsics()
+    }
+
+    fn next_frame(&mut self) -> Result<Option<RgbdSample>, slidetrack_vision::VisionError> {
+        match self.first.take() {
+            Some(first) => Ok(first),
+            None => self.inner.next_frame(),
+        }
+    }
+
+    fn len_hint(&self) -> Option<usize> {
+        self.inner.len_hint()
+    }
+}

@@ -1,0 +1,208 @@
+//! `slidetrack decode` on captures made from a real XELA uSkin recording
+//! (testdata/tactile/xela-imanlab): the recording's rows are encoded as the
+//! CAN frames and serial bytes the sensor would have sent, damaged, decoded
+//! by the CLI, and the session compared with the recording.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::time::UNIX_EPOCH;
+
+use common::{fails, ok, tempdir};
+use slidetrack_drivers::hw::can_protocol::XelaCanLayout;
+use slidetrack_drivers::hw::offline::candump_line;
+use slidetrack_drivers::hw::serial_protocol::ModuleFrame;
+use slidetrack_drivers::session::{ReadOptions, TactileDecoder, TactileRaw, read_channel};
+use slidetrack_drivers::{RawTaxel, TimeNs};
+
+const SEQUENCE: &str = "test/data_sample_2021-11-25-13-09-52";
+
+fn recording_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/testdata/tactile/xela-imanlab").join(SEQUENCE)
+}
+
+/// One XELA sensor's rows: 16 taxels of raw (x, y, z) counts each.
+fn read_sensor(file: &str) -> Vec<Vec<RawTaxel>> {
+    let text = std::fs::read_to_string(recording_dir().join(file)).expect("the XELA recording");
+    text.lines()
+        .skip(1)
+        .map(|line| {
+            let v: Vec<u16> =
+                line.split(',').map(|x| x.trim().parse::<f64>().expect("a number") as u16).collect();
+            assert_eq!(v.len(), 48, "16 taxels x 3 axes");
+            v.chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
+        })
+        .collect()
+}
+
+/// The recording's start (µs since the epoch) and rate (Hz), from its metadata.
+fn start_and_rate() -> (u64, f64) {
+    let text =
+        std::fs::read_to_string(recording_dir().join("meta_data.csv")).expect("the recording's metadata");
+    let mut lines = text.lines().map(|l| l.split(',').collect::<Vec<&str>>());
+    let (header, row) = (lines.next().expect("a header"), lines.next().expect("a row"));
+    let field = |name: &str| row[header.iter().position(|h| *h == name).expect("the column")];
+    let rate: f64 = field("frequency_hz").parse().expect("a rate");
+    let start = humantime::parse_rfc3339_weak(field("start_time")).expect("a start time");
+    (start.duration_since(UNIX_EPOCH).expect("after 1970").as_micros() as u64, rate)
+}
+
+fn have_recording() -> bool {
+    let there = recording_dir().join("xela_sensor1.csv").is_file();
+    if !there {
+        eprintln!("skipping: the XELA recording is not at {}", recording_dir().display());
+    }
+    there
+}
+
+/// The finger map of both tests: three taxels of the 4x4 patch.
+const FINGERS: &str = "fingers = { thumb = { module = 0, taxel = 0 }, index = { module = 0, taxel = 5 }, \
+                       middle = { module = 0, taxel = 15 } }";
+const TAXELS: [usize; 3] = [0, 5, 15];
+
+#[test]
+fn a_candump_log_of_a_real_recording_decodes_to_its_values() {
+    if !have_recording() {
+        return;
+    }
+    let rows = read_sensor("xela_sensor1.csv");
+    let (start_us, rate) = start_and_rate();
+    let period_us = 1e6 / rate;
+    let layout = XelaCanLayout::default();
+    let mut lines = vec![candump_line(start_us, "can0", &layout.start_command())];
+    for (i, row) in rows.iter().enumerate() {
+        let t0 = start_us + 1000 + (i as f64 * period_us) as u64;
+        for (t, v) in row.iter().enumerate() {
+            if i == 10 && t == 7 {
+                continue; // a lost frame: scan 10 is dropped
+            }
+            lines.push(candump_line(t0 + 120 * t as u64, "can0", &layout.taxel_frame(t as u16, *v, true)));
+        }
+        if i == 20 {
+            lines.push("(1637845790.0) can0 710#00".into()); // a corrupt line
+        }
+        if i == 30 {
+            let n = lines.len();
+            lines.swap(n - 3, n - 9); // frames reordered within scan 30
+        }
+        if i == 40 {
+            // the hand's set-point on the same bus
+            lines.push(format!("({}.{:06}) can0 300#00000000000000", t0 / 1_000_000, t0 % 1_000_000));
+        }
+    }
+    lines.truncate(lines.len() - 5); // the capture ends inside the last scan
+    let dir = tempdir();
+    let log = dir.path().join("xela.log");
+    std::fs::write(&log, lines.join("\n") + "\n").unwrap();
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(&rig, format!("[hw.tactile]\nkind = \"can\"\ntaxels = 16\nrate_hz = {rate}\n{FINGERS}\n"))
+        .unwrap();
+    let out = dir.path().join("xela.mcap");
+    let p = |p: &Path| p.to_str().unwrap().to_string();
+    let summary = ok(&["-q", "decode", "--can-log", &p(&log), "--config", &p(&rig), "--out", &p(&out)]);
+    assert!(summary.contains("scans"), "{summary}");
+
+    let raw = read_channel::<TactileRaw>(&out, ReadOptions::default()).unwrap();
+    let kept: Vec<usize> = (0..rows.len() - 1).filter(|&i| i != 10).collect();
+    assert_eq!(raw.len(), kept.len());
+    for ((t, msg), &i) in raw.iter().zip(&kept) {
+        let got = msg.counts.into_array().map(|xyz| xyz.to_array());
+        assert_eq!(got, TAXELS.map(|k| rows[i][k]), "row {i}");
+        let expected_us = 1000.0 + i as f64 * period_us + 120.0 * 15.0;
+        assert!((t.0 as f64 / 1e3 - expected_us).abs() < 2.0, "row {i}: {t:?} vs {expected_us} us");
+    }
+    let counters = read_channel::<TactileDecoder>(&out, ReadOptions::default()).unwrap();
+    let (_, last) = counters.last().unwrap();
+    assert_eq!(last.incomplete_scans, 1);
+    assert_eq!(last.frames, (rows.len() * 16 - 1 - 5) as u64);
+
+    let info: serde_json::Value = serde_json::from_str(&ok(&["info", &p(&out), "--json"])).unwrap();
+    let source = &info["metadata"]["slidetrack.source"];
+    assert_eq!(source["kind"], "can-log");
+    assert_eq!(source["timing"], "capture timestamps");
+    assert_eq!(info["metadata"]["slidetrack"]["rig"], "decoded");
+    let raw_ch = info["channels"].as_array().unwrap().iter().find(|c| c["topic"] == "/tactile/raw").unwrap();
+    assert!((raw_ch["rate_hz"].as_f64().unwrap() - rate).abs() < 1.0, "{raw_ch}");
+}
+
+#[test]
+fn a_serial_capture_of_a_real_recording_decodes_despite_damage() {
+    if !have_recording() {
+        return;
+    }
+    let (s1, s2) = (read_sensor("xela_sensor1.csv"), read_sensor("xela_sensor2.csv"));
+    let mut bytes = vec![0x42, 0x5A, 0xA5]; // the capture began mid-stream
+    let mut damaged = Vec::new();
+    for (i, (a, b)) in s1.iter().zip(&s2).enumerate() {
+        for (module, row) in [(0u8, a), (1u8, b)] {
+            let start = bytes.len();
+            ModuleFrame::new(module, i as u16, row).unwrap().encode_into(&mut bytes);
+            if i == 50 && module == 0 {
+                bytes[start + 40] ^= 0x01; // a flipped bit: scan 50 is lost
+                damaged.push(i);
+            }
+        }
+        if i == 80 {
+            bytes.extend_from_slice(b"noise \xA5\x5A\x00\x06 \xA5"); // garbage with a false sync
+        }
+    }
+    bytes.truncate(bytes.len() - 30); // cut inside the last frame
+    damaged.push(s1.len() - 1);
+    let dir = tempdir();
+    let capture = dir.path().join("capture.bin");
+    std::fs::write(&capture, &bytes).unwrap();
+    let rig = dir.path().join("rig.toml");
+    let fingers = "fingers = { thumb = { module = 0, taxel = 3 }, index = { module = 1, taxel = 3 }, \
+                   middle = { module = 1, taxel = 12 } }";
+    std::fs::write(&rig, format!("[hw.tactile]\nkind = \"serial\"\n{fingers}\n")).unwrap();
+    let out = dir.path().join("capture.mcap");
+    let p = |p: &Path| p.to_str().unwrap().to_string();
+    ok(&[
+        "-q",
+        "decode",
+        "--serial-capture",
+        &p(&capture),
+        "--config",
+        &p(&rig),
+        "--rate",
+        "37.959",
+        "--out",
+        &p(&out),
+    ]);
+
+    let raw = read_channel::<TactileRaw>(&out, ReadOptions::default()).unwrap();
+    let kept: Vec<usize> = (0..s1.len()).filter(|i| !damaged.contains(i)).collect();
+    assert_eq!(raw.len(), kept.len());
+    for ((t, msg), &i) in raw.iter().zip(&kept) {
+        assert_eq!(msg.sequence, i as u64);
+        let got = msg.counts.into_array().map(|xyz| xyz.to_array());
+        assert_eq!(got, [s1[i][3], s2[i][3], s2[i][12]], "row {i}");
+        assert_eq!(*t, TimeNs((i as f64 / 37.959 * 1e9).round() as u64));
+    }
+    let (_, last) = read_channel::<TactileDecoder>(&out, ReadOptions::default()).unwrap().pop().unwrap();
+    assert_eq!((last.crc_errors, last.incomplete_scans), (1, 1), "{last:?}");
+    assert_eq!(last.resyncs, 3, "start, after the bad CRC, after the garbage: {last:?}");
+    assert_eq!(last.gaps, 1, "module 0 lost scan 50");
+}
+
+#[test]
+fn decode_refuses_bad_input_with_one_clear_line() {
+    let dir = tempdir();
+    let out = dir.path().join("out.mcap");
+    let out_s = out.to_str().unwrap();
+    let e = fails(&["decode", "--can-log", "/no/such.log", "--out", out_s]);
+    assert!(e.contains("/no/such.log"), "{e}");
+    let empty = dir.path().join("empty.log");
+    std::fs::write(&empty, "not a candump log\n").unwrap();
+    let e = fails(&["-q", "decode", "--can-log", empty.to_str().unwrap(), "--out", out_s]);
+    assert!(e.contains("no scan decoded") && e.contains("1 unreadable"), "{e}");
+    let e = fails(&["-q", "decode", "--can-log", empty.to_str().unwrap(), "--out", out_s]);
+    assert!(e.contains("already exists") && e.contains("--overwrite"), "{e}");
+    let out2 = dir.path().join("out2.mcap");
+    let out2 = out2.to_str().unwrap();
+    let e =
+        fails(&["-q", "decode", "--serial-capture", empty.to_str().unwrap(), "--rate", "0", "--out", out2]);
+    assert!(e.contains("--rate"), "{e}");
+    let e = fails(&["-q", "decode", "--can-log", empty.to_str().unwrap(), "--taxels", "0", "--out", out2]);
+    assert!(e.contains("taxels"), "{e}");
+}

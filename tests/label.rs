@@ -1,0 +1,103 @@
+//! `slidetrack label` end to end on simulated sessions: the ground truth
+//! meets the accuracy targets against the simulator's truth, labelling
+//! loses nothing and is idempotent, and bad input leaves files untouched.
+
+mod common;
+
+use std::path::Path;
+
+use common::{collect, fails, ok, tempdir};
+use serde_json::Value;
+use slidetrack_drivers::TimeNs;
+use slidetrack_drivers::session::{
+    GroundTruthMeasurement, GroundTruthSliding, MessageReader, ReadOptions, SessionInfo, TactileRaw,
+    read_channel,
+};
+
+/// Every message not under /ground_truth/: topic, times, sequence, payload.
+fn other_messages(path: &Path) -> Vec<(String, TimeNs, TimeNs, u32, Vec<u8>)> {
+    MessageReader::open(path, &[], ReadOptions::default())
+        .expect("readable session")
+        .map(|m| m.expect("readable message"))
+        .filter(|m| !m.topic().starts_with("/ground_truth/"))
+        .map(|m| (m.topic().to_string(), m.log_time, m.publish_time, m.sequence, m.data))
+        .collect()
+}
+
+#[test]
+fn a_simulated_session_is_labelled_within_the_targets_losslessly_and_idempotently() {
+    let dir = tempdir();
+    let file = collect(dir.path(), "box", 3, 20.0, &[]);
+    let path = file.to_str().unwrap();
+    let before = other_messages(&file);
+    let info_before = SessionInfo::read(&file, ReadOptions::default()).unwrap();
+
+    let out: Value = serde_json::from_str(&ok(&["-q", "label", path, "--json"])).unwrap();
+    let summary = &out[0];
+    let scans = read_channel::<TactileRaw>(&file, ReadOptions::default()).unwrap();
+    assert_eq!(summary["samples"].as_u64(), Some(scans.len() as u64));
+    let rmse_p = summary["rmse"]["position_m"].as_f64().unwrap();
+    let rmse_v = summary["rmse"]["velocity_mps"].as_f64().unwrap();
+    assert!(rmse_p <= 1e-3, "position RMSE {:.3} mm", rmse_p * 1e3);
+    assert!(rmse_v <= 5e-3, "velocity RMSE {:.2} mm/s", rmse_v * 1e3);
+    assert!(summary["marker_positions"].as_u64().unwrap() > 500, "{summary}");
+
+    // Nothing else changed: messages, metadata, attachments.
+    assert_eq!(other_messages(&file), before);
+    let info = SessionInfo::read(&file, ReadOptions::default()).unwrap();
+    assert_eq!(info.metadata, info_before.metadata);
+    assert_eq!(info.attachments, info_before.attachments);
+    let sliding = read_channel::<GroundTruthSliding>(&file, ReadOptions::default()).unwrap();
+    let times: Vec<TimeNs> = sliding.iter().map(|(t, _)| *t).collect();
+    assert_eq!(times, scans.iter().map(|(t, _)| *t).collect::<Vec<_>>(), "one ground truth per tactile scan");
+    let measured = read_channel::<GroundTruthMeasurement>(&file, ReadOptions::default()).unwrap();
+    assert_eq!(measured.len() as u64, summary["marker_positions"].as_u64().unwrap());
+    assert_eq!(measured[0].1.position, 0.0, "the first marker position is the origin");
+    let channel = info.channels.iter().find(|c| c.topic == "/ground_truth/sliding").unwrap();
+    let params: Value = serde_json::from_str(&channel.metadata["parameters"]).unwrap();
+    for key in
+        ["q_position_m2_per_s", "q_velocity_m2_per_s3", "r_m2", "x0", "p0", "gate_max_mahalanobis2", "units"]
+    {
+        assert!(params.get(key).is_some(), "parameters lack {key}: {params}");
+    }
+
+    // Labelling again gives the same bytes.
+    let first = std::fs::read(&file).unwrap();
+    ok(&["-q", "label", path]);
+    assert_eq!(std::fs::read(&file).unwrap(), first);
+
+    // The axis from the stored rig config gives the same positions as recorded online.
+    let text = ok(&["-q", "label", path, "--axis", "config", "--dry-run"]);
+    assert!(text.contains("dry run") && text.contains("RMSE"), "{text}");
+    assert_eq!(std::fs::read(&file).unwrap(), first, "a dry run writes nothing");
+
+    // Figure 6.5.
+    let png = dir.path().join("gt.png");
+    ok(&["plot", path, "--what", "ground-truth", "--out", png.to_str().unwrap()]);
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000);
+}
+
+#[test]
+fn sessions_without_marker_detections_are_refused_and_left_untouched() {
+    let dir = tempdir();
+    let file = collect(dir.path(), "box", 5, 2.0, &["--no-camera"]);
+    let path = file.to_str().unwrap();
+    let bytes = std::fs::read(&file).unwrap();
+    let e = fails(&["label", path]);
+    assert!(e.contains("without a camera") && e.contains(path), "{e}");
+    assert_eq!(std::fs::read(&file).unwrap(), bytes);
+    let e =
+        fails(&["plot", path, "--what", "ground-truth", "--out", dir.path().join("x.png").to_str().unwrap()]);
+    assert!(e.contains("slidetrack label"), "{e}");
+
+    // A truncated copy is refused (and kept) without --recover.
+    let cut = dir.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let e = fails(&["label", cut.to_str().unwrap()]);
+    assert!(e.contains("truncated"), "{e}");
+    assert_eq!(std::fs::read(&cut).unwrap(), &bytes[..bytes.len() / 2]);
+    let e = fails(&["label", dir.path().join("none.mcap").to_str().unwrap()]);
+    assert!(e.contains("none.mcap"), "{e}");
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(names.iter().all(|n| !n.to_string_lossy().ends_with(".tmp")), "{names:?}");
+}

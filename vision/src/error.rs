@@ -1,0 +1,107 @@
+//! [`VisionError`]: everything the vision front-ends and trackers can refuse.
+
+use std::path::PathBuf;
+
+use slidetrack_drivers::session::SessionError;
+use slidetrack_estimators::EstimatorError;
+use slidetrack_estimators::maskukf::{MaskUkfError, ModelError};
+use slidetrack_estimators::roft::RoftError;
+use thiserror::Error;
+
+/// Errors of the vision crate.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum VisionError {
+    /// An OpenCV call failed.
+    #[error("OpenCV {context}: {message}")]
+    OpenCv {
+        /// What was being done.
+        context: &'static str,
+        /// OpenCV's message.
+        message: String,
+    },
+    /// A file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// A file was read but its content is not usable.
+    #[error("{path}: {detail}")]
+    BadFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        detail: String,
+    },
+    /// The model file's extension is not one we read.
+    #[error("{path}: unsupported object model format (use .obj, .ply or .xyz)")]
+    UnsupportedModel {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The object model is unusable.
+    #[error("object model: {0}")]
+    Model(#[from] ModelError),
+    /// Two images that must match in size do not.
+    #[error("{what}: {width}x{height} px, expected {expected_width}x{expected_height} px")]
+    SizeMismatch {
+        /// Which image.
+        what: &'static str,
+        /// Its width (px).
+        width: u32,
+        /// Its height (px).
+        height: u32,
+        /// Expected width (px).
+        expected_width: u32,
+        /// Expected height (px).
+        expected_height: u32,
+    },
+    /// An image does not have the layout asked for.
+    #[error("{what}: {detail}")]
+    BadImage {
+        /// Which image.
+        what: &'static str,
+        /// What is wrong.
+        detail: String,
+    },
+    /// Reading or writing a session failed.
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// A session lacks what a reader needs.
+    #[error("{path}: {detail}")]
+    BadSession {
+        /// The session file.
+        path: PathBuf,
+        /// What is missing.
+        detail: String,
+    },
+    /// MaskUKF refused a step.
+    #[error("MaskUKF: {0}")]
+    MaskUkf(#[from] MaskUkfError),
+    /// ROFT refused a step.
+    #[error("ROFT: {0}")]
+    Roft(#[from] RoftError),
+    /// A filter refused its inputs.
+    #[error("filter: {0}")]
+    Estimator(#[from] EstimatorError),
+    /// A device failed.
+    #[error(transparent)]
+    Device(#[from] slidetrack_drivers::DeviceError),
+    /// The simulated RGB-D camera could not be built.
+    #[error("simulated RGB-D camera: {0}")]
+    Sim(#[from] slidetrack_drivers::sim::rgbd::RgbdSimError),
+}
+
+/// Maps OpenCV results onto [`VisionError::OpenCv`] with a context.
+pub(crate) trait OpenCvContext<T> {
+    fn cv(self, context: &'static str) -> Result<T, VisionError>;
+}
+
+impl<T> OpenCvContext<T> for opencv::Result<T> {
+    fn cv(self, context: &'static str) -> Result<T, VisionError> {
+        self.map_err(|e| VisionError::OpenCv { context, message: e.message })
+    }
+}

@@ -1,0 +1,123 @@
+//! RGB-D inputs: the simulated camera ([`SimRgbd`]), recorded sessions
+//! ([`SessionRgbd`]), YCB-Video-style directories of PNGs ([`YcbDirectory`])
+//! and live cameras, a colour camera paired with a Z16 depth camera
+//! ([`CameraPair`], for example two V4L2 devices).
+
+mod camera_pair;
+mod session;
+mod ycb;
+
+pub use camera_pair::CameraPair;
+pub use session::SessionRgbd;
+pub use ycb::{YCB_CLASSES, YcbDirectory, YcbMeta, read_meta};
+
+use opencv::core::{Mat, Vector};
+use opencv::imgcodecs;
+use opencv::prelude::*;
+use slidetrack_drivers::sim::rgbd::{DepthImage, FastSequence, ObjectTruth, RgbdFrame};
+use slidetrack_drivers::{CameraIntrinsics, Image, PixelFormat};
+use slidetrack_estimators::roft::Mask;
+
+use crate::VisionError;
+use crate::error::OpenCvContext;
+
+/// One frame of an input, with the truth that comes with it (simulated
+/// sessions and annotated datasets).
+#[derive(Clone, Debug)]
+pub struct RgbdSample {
+    /// The frame.
+    pub frame: RgbdFrame,
+    /// The object's true pose and velocity.
+    pub truth: Option<ObjectTruth>,
+    /// The object's true mask.
+    pub truth_mask: Option<Mask>,
+}
+
+/// A source of RGB-D frames.
+///
+/// # Contract
+/// `next` returns frames in acquisition order, `Ok(None)` at the end (live
+/// cameras: when no frame is ready yet is not the end — they block until
+/// one is). Every frame has the source's intrinsics and size.
+pub trait RgbdSource {
+    /// The intrinsics of every frame.
+    fn intrinsics(&self) -> &CameraIntrinsics;
+    /// The next frame.
+    fn next_frame(&mut self) -> Result<Option<RgbdSample>, VisionError>;
+    /// Number of frames, when known.
+    fn len_hint(&self) -> Option<usize> {
+        None
+    }
+}
+
+/// The simulated RGB-D camera looking at a fast object.
+pub struct SimRgbd {
+    sequence: FastSequence,
+    next: usize,
+}
+
+impl SimRgbd {
+    /// Frames of `sequence`, from the first.
+    pub fn new(sequence: FastSequence) -> SimRgbd {
+        SimRgbd { sequence, next: 0 }
+    }
+
+    /// The sequence.
+    pub fn sequence(&self) -> &FastSequence {
+        &self.sequence
+    }
+}
+
+impl RgbdSource for SimRgbd {
+    fn intrinsics(&self) -> &CameraIntrinsics {
+        self.sequence.intrinsics()
+    }
+
+    fn next_frame(&mut self) -> Result<Option<RgbdSample>, VisionError> {
+        if self.next >= self.sequence.len() {
+            return Ok(None);
+        }
+        let (frame, mask, truth) = self.sequence.frame(self.next);
+        self.next += 1;
+        let truth_mask = crate::cloud::mask(frame.depth.width, frame.depth.height, &mask)?;
+        Ok(Some(RgbdSample { frame, truth: Some(truth), truth_mask: Some(truth_mask) }))
+    }
+
+    fn len_hint(&self) -> Option<usize> {
+        Some(self.sequence.len())
+    }
+}
+
+/// Decodes a compressed colour image (JPEG, PNG) to RGB8.
+pub fn decode_color(bytes: &[u8]) -> Result<Image, VisionError> {
+    let mat = imgcodecs::imdecode(&Vector::<u8>::from_slice(bytes), imgcodecs::IMREAD_COLOR)
+        .cv("imdecode colour")?;
+    bgr_mat_to_rgb(&mat, "colour image")
+}
+
+/// Decodes a 16-bit PNG depth image; `scale_m` metres per unit.
+pub fn decode_depth(bytes: &[u8], scale_m: f64) -> Result<DepthImage, VisionError> {
+    let mat = imgcodecs::imdecode(&Vector::<u8>::from_slice(bytes), imgcodecs::IMREAD_ANYDEPTH)
+        .cv("imdecode depth")?;
+    depth_mat(&mat, scale_m, "depth image")
+}
+
+/// An 8-bit BGR OpenCV image as RGB8.
+pub(crate) fn bgr_mat_to_rgb(mat: &Mat, what: &'static str) -> Result<Image, VisionError> {
+    if mat.empty() || mat.typ() != opencv::core::CV_8UC3 {
+        return Err(VisionError::BadImage { what, detail: "not an 8-bit colour image".into() });
+    }
+    let mut rgb = Mat::default();
+    opencv::imgproc::cvt_color_def(mat, &mut rgb, opencv::imgproc::COLOR_BGR2RGB).cv("cvtColor")?;
+    let data = rgb.data_bytes().cv("colour bytes")?.to_vec();
+    Ok(Image { width: rgb.cols() as u32, height: rgb.rows() as u32, format: PixelFormat::Rgb8, data })
+}
+
+/// A 16-bit one-channel OpenCV image as a depth image.
+pub(crate) fn depth_mat(mat: &Mat, scale_m: f64, what: &'static str) -> Result<DepthImage, VisionError> {
+    if mat.empty() || mat.typ() != opencv::core::CV_16UC1 {
+        return Err(VisionError::BadImage { what, detail: "not a 16-bit single-channel image".into() });
+    }
+    let data = mat.data_typed::<u16>().cv("depth data")?.to_vec();
+    Ok(DepthImage { width: mat.cols() as u32, height: mat.rows() as u32, data, scale_m })
+}

@@ -1,0 +1,182 @@
+//! Writing RGB-D frames, masks, poses and estimates to sessions, on the
+//! channels of `docs/session-format.md`.
+
+use std::collections::BTreeMap;
+
+use nalgebra::Isometry3;
+use slidetrack_drivers::session::vision_pose::{
+    MaskUkfPose, MaskUkfTransform, MaskUkfVelocity, RoftPose, RoftTransform, RoftVelocity,
+};
+use slidetrack_drivers::session::{
+    ChannelHandle, ChannelMessage, CompressedImage, FrameTransform, Logger, ObjectTruth, PoseInFrame,
+    RawImage, RgbdCalibration, RgbdColor, RgbdDepth, RgbdMask, VelocityEstimate, VisionMask, VisionPose,
+};
+use slidetrack_drivers::sim::rgbd::{ObjectTruth as SimObjectTruth, RgbdFrame};
+use slidetrack_drivers::{CameraIntrinsics, EncodedImage, TimeNs};
+use slidetrack_estimators::roft::Mask;
+
+use crate::VisionError;
+use crate::online::{TrackedState, TrackerKind};
+
+/// The camera's optical frame name in sessions.
+pub const CAMERA_FRAME: &str = "camera";
+
+/// The channels of an RGB-D recording.
+pub struct RgbdChannels {
+    color: ChannelHandle,
+    depth: ChannelHandle,
+    mask: ChannelHandle,
+    truth: ChannelHandle,
+    vision_mask: ChannelHandle,
+    vision_pose: ChannelHandle,
+}
+
+impl RgbdChannels {
+    /// Registers the channels and logs the calibration at time 0.
+    pub fn register(logger: &Logger, intrinsics: &CameraIntrinsics) -> Result<RgbdChannels, VisionError> {
+        let none = BTreeMap::new;
+        let calibration = logger.register::<RgbdCalibration>(none())?;
+        let message = RgbdCalibration(slidetrack_drivers::session::CameraCalibration::new(
+            TimeNs::ZERO,
+            CAMERA_FRAME,
+            intrinsics,
+        ));
+        logger.log_json(&calibration, TimeNs::ZERO, TimeNs::ZERO, 0, &message)?;
+        Ok(RgbdChannels {
+            color: logger.register::<RgbdColor>(none())?,
+            depth: logger.register::<RgbdDepth>(none())?,
+            mask: logger.register::<RgbdMask>(none())?,
+            truth: logger.register::<ObjectTruth>(none())?,
+            vision_mask: logger.register::<VisionMask>(none())?,
+            vision_pose: logger.register::<VisionPose>(none())?,
+        })
+    }
+
+    /// Logs a frame (colour compressed as `color_jpeg`), and its truth and
+    /// ground-truth mask when given.
+    pub fn log_frame(
+        &self,
+        logger: &Logger,
+        frame: &RgbdFrame,
+        color_jpeg: &EncodedImage,
+        truth: Option<&SimObjectTruth>,
+        mask: Option<&Mask>,
+    ) -> Result<(), VisionError> {
+        let (t, seq) = (frame.t, frame.sequence as u32);
+        logger.log_json(
+            &self.color,
+            t,
+            t,
+            seq,
+            &RgbdColor(CompressedImage::new(t, CAMERA_FRAME, color_jpeg)),
+        )?;
+        logger.log_json(
+            &self.depth,
+            t,
+            t,
+            seq,
+            &RgbdDepth(RawImage::depth(t, CAMERA_FRAME, &frame.depth)),
+        )?;
+        if let Some(m) = mask {
+            logger.log_json(
+                &self.mask,
+                t,
+                t,
+                seq,
+                &RgbdMask(RawImage::mask(t, CAMERA_FRAME, m.width(), m.height(), &m.to_bytes())),
+            )?;
+        }
+        if let Some(truth) = truth {
+            logger.log_json(&self.truth, t, t, seq, &ObjectTruth::from(truth))?;
+        }
+        Ok(())
+    }
+
+    /// Logs a mask of the segmentation source computed on frame `frame_t`,
+    /// arriving at `arrival_t`.
+    pub fn log_vision_mask(
+        &self,
+        logger: &Logger,
+        frame_t: TimeNs,
+        arrival_t: TimeNs,
+        mask: &Mask,
+    ) -> Result<(), VisionError> {
+        let raw = RawImage::mask(frame_t, CAMERA_FRAME, mask.width(), mask.height(), &mask.to_bytes());
+        Ok(logger.log_json(&self.vision_mask, arrival_t, frame_t, 0, &VisionMask(raw))?)
+    }
+
+    /// Logs a pose of the pose source computed on frame `frame_t`, arriving at `arrival_t`.
+    pub fn log_vision_pose(
+        &self,
+        logger: &Logger,
+        frame_t: TimeNs,
+        arrival_t: TimeNs,
+        pose: &Isometry3<f64>,
+    ) -> Result<(), VisionError> {
+        let message = VisionPose(PoseInFrame::new(frame_t, CAMERA_FRAME, pose));
+        Ok(logger.log_json(&self.vision_pose, arrival_t, frame_t, 0, &message)?)
+    }
+}
+
+/// The estimate channels of one tracker: `/estimate/pose/<tracker>`,
+/// `/estimate/transform/<tracker>` and `/estimate/velocity/<tracker>`.
+pub struct EstimateChannels {
+    kind: TrackerKind,
+    pose: ChannelHandle,
+    transform: ChannelHandle,
+    velocity: ChannelHandle,
+}
+
+impl EstimateChannels {
+    /// Registers the channels of `kind`.
+    pub fn register(logger: &Logger, kind: TrackerKind) -> Result<EstimateChannels, VisionError> {
+        let none = BTreeMap::new;
+        let (pose, transform, velocity) = match kind {
+            TrackerKind::MaskUkf => (
+                logger.register::<MaskUkfPose>(none())?,
+                logger.register::<MaskUkfTransform>(none())?,
+                logger.register::<MaskUkfVelocity>(none())?,
+            ),
+            TrackerKind::Roft => (
+                logger.register::<RoftPose>(none())?,
+                logger.register::<RoftTransform>(none())?,
+                logger.register::<RoftVelocity>(none())?,
+            ),
+        };
+        Ok(EstimateChannels { kind, pose, transform, velocity })
+    }
+
+    /// The topics, for messages.
+    pub fn topics(kind: TrackerKind) -> [&'static str; 3] {
+        match kind {
+            TrackerKind::MaskUkf => [MaskUkfPose::TOPIC, MaskUkfTransform::TOPIC, MaskUkfVelocity::TOPIC],
+            TrackerKind::Roft => [RoftPose::TOPIC, RoftTransform::TOPIC, RoftVelocity::TOPIC],
+        }
+    }
+
+    /// Logs one estimate at its frame's time.
+    pub fn log(&self, logger: &Logger, state: &TrackedState) -> Result<(), VisionError> {
+        let t = state.t;
+        let pose = PoseInFrame::new(t, CAMERA_FRAME, &state.estimate.camera_from_object);
+        let child = format!("object/{}", self.kind.name());
+        let transform = FrameTransform::new(t, CAMERA_FRAME, &child, &state.estimate.camera_from_object);
+        let velocity = VelocityEstimate {
+            frame_id: CAMERA_FRAME.into(),
+            linear_velocity_mps: state.estimate.linear_velocity_mps.into(),
+            angular_velocity_radps: state.estimate.angular_velocity_radps.into(),
+        };
+        match self.kind {
+            TrackerKind::MaskUkf => {
+                logger.log_json(&self.pose, t, t, 0, &MaskUkfPose(pose))?;
+                logger.log_json(&self.transform, t, t, 0, &MaskUkfTransform(transform))?;
+                logger.log_json(&self.velocity, t, t, 0, &MaskUkfVelocity(velocity))?;
+            }
+            TrackerKind::Roft => {
+                logger.log_json(&self.pose, t, t, 0, &RoftPose(pose))?;
+                logger.log_json(&self.transform, t, t, 0, &RoftTransform(transform))?;
+                logger.log_json(&self.velocity, t, t, 0, &RoftVelocity(velocity))?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,134 @@
+//! Sources of segmentation masks and 6D pose measurements. In ROFT's setting
+//! (thesis Sec. 5.1) both come from networks that are slow: each result
+//! refers to an earlier frame and arrives later. A source is polled once per
+//! RGB-D frame and hands over what arrived by that frame's time:
+//!
+//! - [`SlowNetwork`]: the simulated rig's imitation of such networks, from
+//!   the ground truth with noise, outliers and a delay (5 fps, 200 ms late
+//!   by default);
+//! - [`TruthSource`]: the ground truth of every frame, without delay (the
+//!   "ideal" inputs of Table 5.6, and the label masks of YCB-Video);
+//! - [`FileSequence`]: masks and poses listed in CSV files of a directory;
+//! - [`SessionMeasurements`]: the `/vision/mask` and `/vision/pose` channels
+//!   of a session.
+
+mod files;
+mod network;
+
+pub use files::{FileSequence, SessionMeasurements};
+pub use network::{SlowNetwork, SlowNetworkConfig};
+
+use nalgebra::Isometry3;
+use slidetrack_drivers::TimeNs;
+use slidetrack_estimators::roft::Mask;
+
+use crate::VisionError;
+
+/// A measurement computed on an earlier frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Delayed<T> {
+    /// The time of the frame it was computed on.
+    pub frame_t: TimeNs,
+    /// When it became available.
+    pub arrival_t: TimeNs,
+    /// The measurement.
+    pub value: T,
+}
+
+/// What arrived by a frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Arrivals {
+    /// Masks, oldest first.
+    pub masks: Vec<Delayed<Mask>>,
+    /// Poses (`camera_from_object`), oldest first.
+    pub poses: Vec<Delayed<Isometry3<f64>>>,
+}
+
+impl Arrivals {
+    /// The newest mask.
+    pub fn latest_mask(&self) -> Option<&Delayed<Mask>> {
+        self.masks.last()
+    }
+
+    /// The newest pose.
+    pub fn latest_pose(&self) -> Option<&Delayed<Isometry3<f64>>> {
+        self.poses.last()
+    }
+}
+
+/// The ground truth of a frame, for sources that imitate networks.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameTruth<'a> {
+    /// True `camera_from_object`.
+    pub camera_from_object: &'a Isometry3<f64>,
+    /// True mask.
+    pub mask: &'a Mask,
+}
+
+/// A source of masks and poses.
+///
+/// # Contract
+/// `on_frame` is called once per RGB-D frame, with increasing `t`, and the
+/// frame's ground truth when the input has one. It returns what became
+/// available at or before `t` and was not returned yet. It does not block.
+pub trait MeasurementSource: Send {
+    /// The measurements available at frame `t`.
+    fn on_frame(&mut self, t: TimeNs, truth: Option<FrameTruth<'_>>) -> Result<Arrivals, VisionError>;
+}
+
+/// The ground truth of every frame, immediately: masks, poses, or both.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TruthSource {
+    /// Deliver the true mask.
+    pub masks: bool,
+    /// Deliver the true pose.
+    pub poses: bool,
+}
+
+impl MeasurementSource for TruthSource {
+    fn on_frame(&mut self, t: TimeNs, truth: Option<FrameTruth<'_>>) -> Result<Arrivals, VisionError> {
+        let mut out = Arrivals::default();
+        if let Some(truth) = truth {
+            if self.masks {
+                out.masks.push(Delayed { frame_t: t, arrival_t: t, value: truth.mask.clone() });
+            }
+            if self.poses {
+                out.poses.push(Delayed { frame_t: t, arrival_t: t, value: *truth.camera_from_object });
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Masks from one source and poses from another.
+pub struct Combined {
+    /// Where the masks come from.
+    pub masks: Box<dyn MeasurementSource>,
+    /// Where the poses come from.
+    pub poses: Box<dyn MeasurementSource>,
+}
+
+impl MeasurementSource for Combined {
+    fn on_frame(&mut self, t: TimeNs, truth: Option<FrameTruth<'_>>) -> Result<Arrivals, VisionError> {
+        let masks = self.masks.on_frame(t, truth)?.masks;
+        let poses = self.poses.on_frame(t, truth)?.poses;
+        Ok(Arrivals { masks, poses })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn truth_delivers_every_frame_at_once() {
+        let mut s = TruthSource { masks: true, poses: false };
+        let mask = Mask::empty(4, 4);
+        let pose = Isometry3::identity();
+        let a = s.on_frame(TimeNs(7), Some(FrameTruth { camera_from_object: &pose, mask: &mask })).unwrap();
+        assert_eq!(a.masks.len(), 1);
+        assert_eq!(a.masks[0].frame_t, TimeNs(7));
+        assert!(a.poses.is_empty());
+        assert_eq!(s.on_frame(TimeNs(8), None).unwrap(), Arrivals::default());
+    }
+}
