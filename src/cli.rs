@@ -53,6 +53,10 @@ pub enum Command {
     Replay(crate::commands::replay::ReplayArgs),
     /// Score a dEKF model on labelled sessions (RMSE and max errors, Table 6.1).
     Eval(crate::commands::eval::EvalArgs),
+    /// Run the experiment with the dEKF (and the marker filter) live, recorded to a session.
+    Track(crate::commands::track::TrackArgs),
+    /// The experiments of thesis Sec. 6.3 on the simulated rig: Tables 6.1-6.4.
+    Study(crate::commands::study::StudyArgs),
     /// Turn captured tactile traffic (candump log, raw serial bytes) into a session.
     Decode(DecodeArgs),
 }
@@ -307,6 +311,10 @@ pub struct CalibrateCameraArgs {
     /// Give up live capture after this many seconds.
     #[arg(long, default_value_t = 300.0)]
     pub timeout: f64,
+    /// Live mode: also save each kept view as DIR/view-NN.png (lossless), to
+    /// calibrate again from the files with --images.
+    #[arg(long, value_name = "DIR", conflicts_with = "images")]
+    pub save_views: Option<PathBuf>,
     /// Output file.
     #[arg(long, default_value = "camera.yaml")]
     pub out: PathBuf,
@@ -354,6 +362,8 @@ pub enum RefineArg {
     Subpix,
     /// Lines fitted to the contour.
     Contour,
+    /// AprilTag's quad fit.
+    Apriltag,
 }
 
 /// Arguments of `aruco detect`.
@@ -395,9 +405,26 @@ pub struct DemoArgs {
     pub seed: u64,
 }
 
+/// A benchmark of `bench`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchWhat {
+    /// Collecting a simulated trial, with and without camera (one core).
+    Collect,
+    /// One online dEKF step, derivative filter included (one core).
+    Dekf,
+    /// Training the dEKF on a thesis-sized simulated set (`--threads` cores).
+    DekfTraining,
+}
+
 /// Arguments of `bench`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
+    /// What to measure, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "collect")]
+    pub what: Vec<BenchWhat>,
+    /// Worker threads of the training benchmark (the target is for 2 cores).
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
     /// Runs per measurement (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub runs: usize,

@@ -1,11 +1,13 @@
 //! The dEKF on sessions: the inputs a model reads, running a model over a
 //! session, and scoring its estimates (thesis Sec. 3.4.1, Table 6.1).
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use serde::Serialize;
 use slidetrack_drivers::TimeNs;
+use slidetrack_drivers::session::{DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate};
 use slidetrack_estimators::dekf::{DekfModel, DekfOutput, DekfTracker, Measurement, Sequence};
 use slidetrack_estimators::derivative::{DerivativeFilter, DerivativeFilterConfig};
 
@@ -134,6 +136,29 @@ pub fn run(model: &DekfModel, session: &SessionData) -> Result<Vec<(TimeNs, Dekf
         }
     }
     Ok(out)
+}
+
+/// The `/estimate/dekf` message of a dEKF output (cm -> m).
+pub fn estimate_message(o: &DekfOutput) -> DekfEstimate {
+    let s = 1.0 / CM;
+    let c = o.cov;
+    DekfEstimate(SlidingEstimate {
+        position: o.mean[0] * s,
+        velocity: o.mean[1] * s,
+        covariance: [[c[0][0] * s * s, c[0][1] * s * s], [c[1][0] * s * s, c[1][1] * s * s]],
+    })
+}
+
+/// The channel metadata of `/tactile/derivative` and `/estimate/dekf` for
+/// `model` read from the file named `model_name`.
+pub fn estimate_metadata(model: &DekfModel, model_name: &str) -> Result<[BTreeMap<String, String>; 2]> {
+    let derivative = BTreeMap::from([
+        (DERIVATIVE_CHANNELS_KEY.to_string(), serde_json::to_string(&model.meta.channels)?),
+        ("model".to_string(), model_name.to_string()),
+        ("measurement".to_string(), model.meta.measurement.name().to_string()),
+    ]);
+    let estimate = BTreeMap::from([("model".to_string(), model_name.to_string())]);
+    Ok([derivative, estimate])
 }
 
 /// Errors of one session (Table 6.1 metrics), in cm and cm/s.

@@ -6,8 +6,10 @@ mod dataset;
 mod dekf_run;
 mod hw_rig;
 mod observer;
+mod pipeline;
 mod plot;
 mod rig_config;
+mod tracking;
 mod trial;
 
 use std::process::ExitCode;

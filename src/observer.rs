@@ -62,6 +62,22 @@ struct Channels {
     decoder: Option<ChannelHandle>,
 }
 
+/// Live work on a trial's data beside the recording (the online trackers of
+/// `slidetrack track`). The hooks run on the control loop's thread after the
+/// data they receive has been recorded; an error ends the trial with a safe
+/// release, like a recording error.
+pub trait TrialExtension {
+    /// A baseline-subtracted tactile scan (counts, `[finger][x, y, z]`).
+    fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError>;
+    /// A camera frame and the marker position along the sliding axis found
+    /// in it (m), `None` when the marker was not found.
+    fn on_frame(&mut self, frame: &Frame, position_on_axis_m: Option<f64>) -> Result<(), ObserverError>;
+    /// The simulator's truth at a scan (simulated rig only).
+    fn on_truth(&mut self, _truth: &SimTruth) {}
+    /// A protocol event.
+    fn on_event(&mut self, _t: TimeNs, _event: &ProtocolEvent) {}
+}
+
 /// Longest time between two `/tactile/decoder` messages while nothing changes (s).
 const DECODER_LOG_PERIOD_S: f64 = 1.0;
 
@@ -74,6 +90,7 @@ pub struct SessionObserver<'a> {
     progress: Box<dyn FnMut(TimeNs) + 'a>,
     /// When the decoder counters were last written, and what they were.
     decoder_written: Option<(TimeNs, DecoderCounters)>,
+    extension: Option<Box<dyn TrialExtension + 'a>>,
 }
 
 impl<'a> SessionObserver<'a> {
@@ -117,7 +134,14 @@ impl<'a> SessionObserver<'a> {
             stats: TrialStats::default(),
             progress,
             decoder_written: None,
+            extension: None,
         })
+    }
+
+    /// Runs `extension` on the trial's data as it is recorded.
+    pub fn with_extension(mut self, extension: Box<dyn TrialExtension + 'a>) -> SessionObserver<'a> {
+        self.extension = Some(extension);
+        self
     }
 
     /// Writes the decoder's latest counters at `t` unless they were written already.
@@ -180,6 +204,9 @@ impl TrialObserver for SessionObserver<'_> {
 
     fn on_truth(&mut self, t: &SimTruth) -> Result<(), ObserverError> {
         self.stats.truth.push((t.t, t.position_m, t.velocity_mps));
+        if let Some(x) = self.extension.as_mut() {
+            x.on_truth(t);
+        }
         let Some(ch) = &self.ch.truth else { return Ok(()) };
         let msg = TruthMsg {
             position: t.position_m,
@@ -199,7 +226,11 @@ impl TrialObserver for SessionObserver<'_> {
     }
 
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
-        self.log(&self.ch.zeroed, t, &TactileZeroed { counts: PerFinger::from_array(zeroed.map(xyz3)) })
+        self.log(&self.ch.zeroed, t, &TactileZeroed { counts: PerFinger::from_array(zeroed.map(xyz3)) })?;
+        match self.extension.as_mut() {
+            Some(x) => x.on_zeroed(t, zeroed),
+            None => Ok(()),
+        }
     }
 
     fn on_control(&mut self, t: TimeNs, r: &ControlRecord) -> Result<(), ObserverError> {
@@ -232,6 +263,9 @@ impl TrialObserver for SessionObserver<'_> {
         if let Some(ch) = &self.ch.aruco {
             self.logger.log_json(ch, frame.t, frame.t, seq, &detection)?;
         }
+        if let Some(x) = self.extension.as_mut() {
+            x.on_frame(&frame, detection.position_on_axis_m)?;
+        }
         Ok(detection.position_on_axis_m)
     }
 
@@ -242,6 +276,9 @@ impl TrialObserver for SessionObserver<'_> {
         if matches!(e.phase, slidetrack_control::Phase::Done | slidetrack_control::Phase::Aborted) {
             let last = self.decoder_written.map_or(t, |(w, _)| w.max(t));
             self.flush_decoder(last)?;
+        }
+        if let Some(x) = self.extension.as_mut() {
+            x.on_event(t, e);
         }
         tracing::info!(phase = e.phase.name(), "{}", e.message);
         let msg =

@@ -8,14 +8,14 @@ use std::time::{Instant, SystemTime};
 use anyhow::{Context, Result, bail};
 use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig, TrialOutcome, run_trial};
-use slidetrack_drivers::session::{Recorder, RecorderOptions, SessionMetadata};
+use slidetrack_drivers::session::{Logger, Recorder, RecorderOptions, SessionMetadata};
 use slidetrack_drivers::sim::camera::SimCameraRenderer;
 use slidetrack_drivers::sim::{ObjectConfig, SimCamera, SimDevices, Stream, sliding_episodes, stream_seed};
 use slidetrack_drivers::{
     Camera, CameraIntrinsics, Clock, SimClock, TactileInfo, TactileSource, TimeNs, WallClock,
 };
 
-use crate::observer::{MarkerTracking, SessionObserver, TrialStats};
+use crate::observer::{MarkerTracking, SessionObserver, TrialExtension, TrialStats};
 use crate::rig_config::RigConfig;
 
 /// What to run.
@@ -196,6 +196,21 @@ pub fn record_trial(
     stop: &AtomicBool,
     progress: &mut dyn FnMut(TimeNs),
 ) -> Result<TrialReport> {
+    record_trial_with(setup, spec, stop, progress, None)
+}
+
+/// Makes the live extension of a trial from the trial's logger (it registers
+/// its own channels there).
+pub type ExtensionFactory<'a> = Box<dyn FnOnce(&Logger) -> Result<Box<dyn TrialExtension + 'a>> + 'a>;
+
+/// [`record_trial`] with a live extension (the trackers of `track`).
+pub fn record_trial_with<'a>(
+    setup: RigSetup,
+    spec: &TrialSpec,
+    stop: &AtomicBool,
+    progress: &'a mut dyn FnMut(TimeNs),
+    extension: Option<ExtensionFactory<'a>>,
+) -> Result<TrialReport> {
     let started = Instant::now();
     let RigSetup { mut rig, tactile_info, tracking, rig_name } = setup;
     let object = spec.object;
@@ -214,6 +229,9 @@ pub fn record_trial(
     let with_truth = rig.truth.is_some();
     let mut observer =
         SessionObserver::new(recorder.logger(), &tactile_info, tracking, with_truth, Box::new(progress))?;
+    if let Some(make) = extension {
+        observer = observer.with_extension(make(&recorder.logger())?);
+    }
     let e = &object.experiment;
     let mut protocol = Protocol::new(ProtocolConfig {
         settings: spec.rig.protocol.clone(),

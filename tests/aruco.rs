@@ -61,6 +61,29 @@ fn every_marker_of_the_tutorial_photos_is_found_where_opencv_says() {
 }
 
 #[test]
+fn the_diamond_photo_gives_its_twelve_markers_with_opencvs_test_settings() {
+    // OpenCV's diamond test: detector_params.yml with CORNER_REFINE_APRILTAG.
+    let gold: Value = serde_json::from_str(
+        &std::fs::read_to_string(testdata("aruco/diamondmarkers.gt.json")).expect("gold"),
+    )
+    .expect("gold JSON");
+    let image = testdata("aruco/diamondmarkers.png");
+    let dict = testdata("aruco/tutorial_dict.yml");
+    let params = testdata("aruco/detector_params.yml");
+    let out: Value = serde_json::from_str(&ok(&[
+        "aruco", "detect", &image, "--dict", &dict, "--params", &params, "--refine", "apriltag", "--json",
+    ]))
+    .expect("JSON output");
+    let markers = out["markers"].as_array().expect("markers");
+    assert_eq!(markers.len() as u64, gold["n_markers"].as_u64().expect("n_markers"));
+    for (id, count) in gold["marker_id_counts"].as_object().expect("id counts") {
+        let found =
+            markers.iter().filter(|m| m["id"].as_u64().map(|i| i.to_string()) == Some(id.clone())).count();
+        assert_eq!(found as u64, count.as_u64().expect("count"), "id {id}");
+    }
+}
+
+#[test]
 fn with_intrinsics_and_a_size_the_poses_are_printed() {
     let camera = testdata("aruco/tutorial_camera_params.yml");
     let image = testdata("aruco/singlemarkersoriginal.jpg");

@@ -152,6 +152,7 @@ fn unplugging_mid_trial_releases_the_hand_and_keeps_the_data() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(stderr.contains("disconnected") && stderr.contains("/dev/pts/"), "{stderr}");
     assert!(stderr.contains("the hand was released") && stderr.contains("scans recorded so far"), "{stderr}");
+    assert_eq!(stderr.matches("/dev/pts/").count(), 1, "one message about the device: {stderr}");
 
     // A complete file (no --recover needed) with the data up to the unplug.
     let file = out.join("box-s1-t000.mcap");

@@ -6,12 +6,12 @@ mod common;
 
 use std::path::Path;
 
-use common::{collect, fails, ok, tempdir};
+use common::{collect, fails, ok, run, tempdir};
 use serde_json::Value;
 use slidetrack_drivers::TimeNs;
 use slidetrack_drivers::session::{
-    GroundTruthMeasurement, GroundTruthSliding, MessageReader, ReadOptions, SessionInfo, TactileRaw,
-    read_channel,
+    ArucoDetection, GroundTruthMeasurement, GroundTruthSliding, MessageReader, NewChannel, ReadOptions,
+    SessionInfo, TactileRaw, read_channel, rewrite_session,
 };
 
 /// Every message not under /ground_truth/: topic, times, sequence, payload.
@@ -96,6 +96,24 @@ fn sessions_without_marker_detections_are_refused_and_left_untouched() {
     let e = fails(&["label", cut.to_str().unwrap()]);
     assert!(e.contains("truncated"), "{e}");
     assert_eq!(std::fs::read(&cut).unwrap(), &bytes[..bytes.len() / 2]);
+    // A camera channel in which the marker was never found.
+    let blind = collect(dir.path(), "bottle", 6, 2.0, &[]);
+    let frames = read_channel::<ArucoDetection>(&blind, ReadOptions::default()).unwrap();
+    let mut missed = NewChannel::of::<ArucoDetection>(Default::default());
+    for (t, _) in &frames {
+        missed.push_json(*t, &ArucoDetection::missed()).unwrap();
+    }
+    rewrite_session(&blind, ReadOptions::default(), &|_| false, vec![missed]).unwrap();
+    let blind_bytes = std::fs::read(&blind).unwrap();
+    let e = fails(&["label", blind.to_str().unwrap()]);
+    assert!(e.contains(&format!("no marker position in any of the {} camera frame", frames.len())), "{e}");
+    assert_eq!(std::fs::read(&blind).unwrap(), blind_bytes);
+    // Several files: each failure named on its own line, then the count; exit 1.
+    let out = run(&["-q", "label", blind.to_str().unwrap(), path]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("2 of 2 files could not be labelled (left unchanged)"), "{stderr}");
+    assert!(stderr.lines().any(|l| l.contains("without a camera")), "{stderr}");
     let e = fails(&["label", dir.path().join("none.mcap").to_str().unwrap()]);
     assert!(e.contains("none.mcap"), "{e}");
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();

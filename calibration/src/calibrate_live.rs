@@ -86,11 +86,20 @@ pub struct LiveOptions {
     pub max_frames: u64,
     /// Give up after this much wall time.
     pub timeout: Duration,
+    /// Keep every kept view's frame as lossless PNG bytes in
+    /// [`LiveCapture::images`] (to save them and calibrate again from files).
+    pub keep_images: bool,
 }
 
 impl Default for LiveOptions {
     fn default() -> Self {
-        LiveOptions { views: 20, min_spread: 0.12, max_frames: 20_000, timeout: Duration::from_secs(300) }
+        LiveOptions {
+            views: 20,
+            min_spread: 0.12,
+            max_frames: 20_000,
+            timeout: Duration::from_secs(300),
+            keep_images: false,
+        }
     }
 }
 
@@ -133,6 +142,9 @@ pub struct LiveCapture {
     pub frames: u64,
     /// Frames in which the pattern was found.
     pub frames_with_pattern: u64,
+    /// With [`LiveOptions::keep_images`]: each kept view's frame, 8-bit gray
+    /// PNG, in the order of `views`; empty otherwise.
+    pub images: Vec<Vec<u8>>,
 }
 
 /// Captures well-spread views of the pattern from `camera`. Stops when
@@ -153,6 +165,7 @@ pub fn capture_views(
         height: intrinsics.height,
         frames: 0,
         frames_with_pattern: 0,
+        images: Vec::new(),
     };
     while capture.views.len() < options.views && capture.frames < options.max_frames {
         if started.elapsed() > options.timeout {
@@ -172,6 +185,9 @@ pub fn capture_views(
                 capture.frames_with_pattern += 1;
                 match ViewPlacement::of(&view, w, h) {
                     Some(p) if capture.placements.iter().all(|q| p.distance(q) >= options.min_spread) => {
+                        if options.keep_images {
+                            capture.images.push(encode_png(&gray)?);
+                        }
                         capture.views.push(view);
                         capture.placements.push(p);
                         FrameVerdict::Kept(p)
@@ -200,6 +216,19 @@ fn frame_gray(frame: &Frame) -> Result<Mat, LiveError> {
         return Err(LiveError::EmptyFrame { sequence: frame.sequence });
     }
     Ok(gray)
+}
+
+/// `gray` as PNG bytes (lossless, so a saved view gives the same corners).
+fn encode_png(gray: &Mat) -> Result<Vec<u8>, LiveError> {
+    let mut bytes = Vector::<u8>::new();
+    let written = imgcodecs::imencode(".png", gray, &mut bytes, &Vector::new()).cv("imencode")?;
+    if !written {
+        return Err(LiveError::Calibration(CalibrationError::OpenCv {
+            operation: "imencode",
+            source: opencv::Error::new(opencv::core::StsError, "PNG encoder refused the frame"),
+        }));
+    }
+    Ok(bytes.as_slice().to_vec())
 }
 
 /// Why a live capture stopped.

@@ -101,7 +101,7 @@ fn live_capture_from_the_simulated_board_camera_keeps_spread_views_and_calibrate
     let mut camera = SimBoardCamera::new(SimCameraConfig::default(), Chessboard::default(), 9).unwrap();
     let truth = slidetrack_drivers::Camera::intrinsics(&camera).clone();
     let mut finder = PatternFinder::new("chessboard:9x6:0.025".parse().unwrap()).unwrap();
-    let options = LiveOptions { views: 12, max_frames: 400, ..LiveOptions::default() };
+    let options = LiveOptions { views: 12, max_frames: 400, keep_images: true, ..LiveOptions::default() };
     let mut updates = 0;
     let capture = capture_views(&mut camera, &mut finder, &options, &mut |_| updates += 1).unwrap();
     assert_eq!(
@@ -119,6 +119,14 @@ fn live_capture_from_the_simulated_board_camera_keeps_spread_views_and_calibrate
     }
     let c = calibrate(&capture.views, capture.width, capture.height, CalibrateOptions::default()).unwrap();
     assert!((c.intrinsics.fx - truth.fx).abs() / truth.fx < 0.01, "{:?}", c.intrinsics);
+    // The kept frames, saved as PNG, give the same views back.
+    assert_eq!(capture.images.len(), capture.views.len());
+    for (png, view) in capture.images.iter().zip(&capture.views) {
+        let bytes = opencv::core::Vector::<u8>::from_slice(png);
+        let gray = imgcodecs::imdecode(&bytes, imgcodecs::IMREAD_GRAYSCALE).unwrap();
+        assert_eq!((gray.cols(), gray.rows()), (capture.width as i32, capture.height as i32));
+        assert_eq!(finder.find(&gray).unwrap().as_ref(), Some(view));
+    }
 }
 
 #[test]

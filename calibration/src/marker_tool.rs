@@ -67,6 +67,9 @@ pub enum Refinement {
     Subpix,
     /// Lines fitted to the contour (`CORNER_REFINE_CONTOUR`).
     Contour,
+    /// AprilTag's quad fit on decimated edges (`CORNER_REFINE_APRILTAG`), as
+    /// OpenCV's diamond test uses.
+    Apriltag,
 }
 
 /// A dictionary for still-image detection, predefined or from a file.
@@ -153,6 +156,7 @@ pub fn detector_parameters(
             Refinement::None => aruco::CornerRefineMethod::CORNER_REFINE_NONE,
             Refinement::Subpix => aruco::CornerRefineMethod::CORNER_REFINE_SUBPIX,
             Refinement::Contour => aruco::CornerRefineMethod::CORNER_REFINE_CONTOUR,
+            Refinement::Apriltag => aruco::CornerRefineMethod::CORNER_REFINE_APRILTAG,
         };
         params.set_corner_refinement_method(method as i32);
     }

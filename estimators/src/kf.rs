@@ -103,6 +103,17 @@ pub struct ConstantVelocity {
     pub r: f64,
 }
 
+impl Default for ConstantVelocity {
+    /// The thesis's ground-truth smoother (Sec. 6.2.3): `Q = diag(0.01, 0.01)`
+    /// per step and `R = 10`, in the squares of whatever length unit the
+    /// measurements use (only the ratios of `Q`, `R` and `P0` shape the
+    /// smoothed mean). [`crate::cv_smoother::CvSmootherParams::default`]
+    /// holds the same values as rates in SI units, read in cm at 30 Hz steps.
+    fn default() -> Self {
+        ConstantVelocity { q_diag: [0.01, 0.01], r: 10.0 }
+    }
+}
+
 impl ConstantVelocity {
     /// `F(dt)`.
     #[rustfmt::skip]
@@ -160,6 +171,18 @@ mod tests {
             assert_relative_eq!(post.cov[(0, 0)], 0.8, epsilon = 1e-12);
             assert_relative_eq!(innov.mahalanobis2, 4.0 / 5.0, epsilon = 1e-12);
         }
+    }
+
+    #[test]
+    fn the_default_is_the_thesis_model_and_matches_the_smoother_defaults_at_30_hz() {
+        let cv = ConstantVelocity::default();
+        assert_eq!(cv.Q(), SMatrix::<f64, 2, 2>::new(0.01, 0.0, 0.0, 0.01));
+        assert_eq!(cv.R()[(0, 0)], 10.0);
+        // The same filter in cm (thesis) and in m (the smoother's SI rates) gives the same track.
+        let si = crate::cv_smoother::CvSmootherParams::default();
+        let (dt, cm) = (1.0 / 30.0, 0.01);
+        assert_relative_eq!(si.Q(dt) / (cm * cm), cv.Q(), max_relative = 1e-12);
+        assert_relative_eq!(si.r_m2 / (cm * cm), cv.r, max_relative = 1e-12);
     }
 
     #[test]

@@ -23,6 +23,7 @@ fn detect(args: &ArucoDetectArgs) -> Result<()> {
         RefineArg::None => Refinement::None,
         RefineArg::Subpix => Refinement::Subpix,
         RefineArg::Contour => Refinement::Contour,
+        RefineArg::Apriltag => Refinement::Apriltag,
     };
     let params = detector_parameters(args.params.as_deref(), refinement)?;
     let image = read_image(&args.image)?;

@@ -1,5 +1,6 @@
 //! `slidetrack bench`: collection speed on one core against the targets of
-//! the foundation issue (camera: 10x real time; no camera: 200x).
+//! the foundation issue (camera: 10x real time; no camera: 200x), and the
+//! dEKF's step and training times (see `bench_dekf`).
 
 use std::sync::atomic::AtomicBool;
 
@@ -7,7 +8,7 @@ use anyhow::{Context, Result};
 use serde_json::json;
 use slidetrack_drivers::sim::ObjectConfig;
 
-use crate::cli::BenchArgs;
+use crate::cli::{BenchArgs, BenchWhat};
 use crate::rig_config::RigConfig;
 use crate::trial::{TrialSpec, run_sim_trial};
 
@@ -33,6 +34,18 @@ impl Measurement {
     fn speedup(&self) -> f64 {
         self.session_s / self.median_s()
     }
+
+    fn to_json(&self) -> serde_json::Value {
+        json!({
+            "what": self.label,
+            "session_s": self.session_s,
+            "median_wall_s": self.median_s(),
+            "runs_wall_s": self.wall_s,
+            "times_real_time": self.speedup(),
+            "target_times_real_time": self.target,
+            "pass": self.speedup() >= self.target,
+        })
+    }
 }
 
 /// Pins this process (and the threads it starts, the recorder among them) to one CPU.
@@ -48,9 +61,51 @@ fn pin_to_one_core() -> Result<usize> {
 }
 
 pub fn run(args: &BenchArgs) -> Result<()> {
-    let cpu = pin_to_one_core()?;
-    slidetrack_calibration::use_one_thread();
     let dir = tempfile_dir()?;
+    let result = run_in(args, &dir);
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+fn run_in(args: &BenchArgs, dir: &std::path::Path) -> Result<()> {
+    let mut report = serde_json::Map::new();
+    // Training first: it uses several cores, the others are pinned to one.
+    if args.what.contains(&BenchWhat::DekfTraining) {
+        let r = super::bench_dekf::training(dir, args.runs.clamp(1, 3), args.threads, args.json)?;
+        if !args.json {
+            println!("{}", super::bench_dekf::describe(&r));
+        }
+        report.insert("dekf_training".into(), r);
+    }
+    let cpu = pin_to_one_core()?;
+    report.insert("cpu".into(), json!(cpu));
+    if args.what.contains(&BenchWhat::Dekf) {
+        let r = super::bench_dekf::step(args.runs)?;
+        if !args.json {
+            println!("{} (CPU {cpu})", super::bench_dekf::describe(&r));
+        }
+        report.insert("dekf_step".into(), r);
+    }
+    if args.what.contains(&BenchWhat::Collect) {
+        let results = bench_collect(args, dir)?;
+        if args.json {
+            report.insert(
+                "collect".into(),
+                json!(results.iter().map(Measurement::to_json).collect::<Vec<_>>()),
+            );
+        } else {
+            print_collect(args, cpu, &results);
+        }
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    }
+    Ok(())
+}
+
+/// Collection speed with and without camera.
+fn bench_collect(args: &BenchArgs, dir: &std::path::Path) -> Result<Vec<Measurement>> {
+    slidetrack_calibration::use_one_thread();
     let rig = RigConfig::default();
     let object = ObjectConfig::load("box")?;
     let stop = AtomicBool::new(false);
@@ -78,31 +133,16 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
         results.push(m);
     }
-    let _ = std::fs::remove_dir_all(&dir);
-    if args.json {
-        let out: Vec<_> = results
-            .iter()
-            .map(|m| {
-                json!({
-                    "what": m.label,
-                    "session_s": m.session_s,
-                    "median_wall_s": m.median_s(),
-                    "runs_wall_s": m.wall_s,
-                    "times_real_time": m.speedup(),
-                    "target_times_real_time": m.target,
-                    "pass": m.speedup() >= m.target,
-                })
-            })
-            .collect();
-        println!("{}", serde_json::to_string_pretty(&json!({"cpu": cpu, "collect": out}))?);
-        return Ok(());
-    }
+    Ok(results)
+}
+
+fn print_collect(args: &BenchArgs, cpu: usize, results: &[Measurement]) {
     println!(
         "collect: box, {} s of sliding cycles, pinned to CPU {cpu} (one core, OpenCV single-threaded), median of {} runs",
         args.duration,
         args.runs.max(1)
     );
-    for m in &results {
+    for m in results {
         println!(
             "  {:<32} {:>7.3} s for {:.1} s of session -> {:>6.1}x real time (target >= {:.0}x): {}",
             m.label,
@@ -113,7 +153,6 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             if m.speedup() >= m.target { "PASS" } else { "FAIL" }
         );
     }
-    Ok(())
 }
 
 fn tempfile_dir() -> Result<std::path::PathBuf> {

@@ -1,6 +1,6 @@
 //! `slidetrack calibrate camera`: intrinsics from pattern views, to ROS or OpenCV YAML.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -31,7 +31,8 @@ struct Views {
     views: Vec<PatternView>,
     width: u32,
     height: u32,
-    /// Per image file: whether the pattern was found (file mode only).
+    /// Per image file: whether the pattern was found (file mode), or the
+    /// views saved with --save-views (live mode).
     images: Vec<(PathBuf, bool)>,
 }
 
@@ -163,7 +164,7 @@ fn live(
             Chessboard { inner_corners: *inner_corners, square_size_m: *square_m, ..Chessboard::default() };
         Box::new(SimBoardCamera::new(rig.camera, board, 1)?)
     } else {
-        let device = args.device.as_deref().unwrap_or(std::path::Path::new("/dev/video0"));
+        let device = args.device.as_deref().unwrap_or(Path::new("/dev/video0"));
         open_v4l2(device, args.width, args.height)?
     };
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
@@ -172,6 +173,7 @@ fn live(
     let options = LiveOptions {
         views: args.views.max(MIN_VIEWS),
         timeout: Duration::from_secs_f64(args.timeout),
+        keep_images: args.save_views.is_some(),
         ..LiveOptions::default()
     };
     let show = !quiet && !args.json;
@@ -196,12 +198,29 @@ fn live(
             pattern
         );
     }
-    Ok(Views { views: capture.views, width: capture.width, height: capture.height, images: Vec::new() })
+    let images = match &args.save_views {
+        Some(dir) => save_views(dir, &capture.images)?,
+        None => Vec::new(),
+    };
+    Ok(Views { views: capture.views, width: capture.width, height: capture.height, images })
+}
+
+/// Writes the kept frames as `dir/view-NN.png`; returns the files written.
+fn save_views(dir: &Path, pngs: &[Vec<u8>]) -> Result<Vec<(PathBuf, bool)>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    pngs.iter()
+        .enumerate()
+        .map(|(k, png)| {
+            let file = dir.join(format!("view-{k:02}.png"));
+            std::fs::write(&file, png).with_context(|| format!("cannot write {}", file.display()))?;
+            Ok((file, true))
+        })
+        .collect()
 }
 
 /// The V4L2 camera at `device`, streaming `width x height` MJPG at 30 fps.
 /// Its intrinsics are what is being calibrated: a placeholder is passed.
-fn open_v4l2(device: &std::path::Path, width: u32, height: u32) -> Result<Box<dyn Camera>> {
+fn open_v4l2(device: &Path, width: u32, height: u32) -> Result<Box<dyn Camera>> {
     let config = V4l2CameraConfig {
         device: device.display().to_string(),
         width,

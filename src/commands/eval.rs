@@ -56,7 +56,7 @@ pub struct EvalReport {
 }
 
 /// Scores of `model` on one session against `truth` (relative to the first step).
-fn score_session(model: &DekfModel, data: &SessionData) -> Result<Scores> {
+pub fn score_session(model: &DekfModel, data: &SessionData) -> Result<Scores> {
     let outputs = run(model, data)?;
     let Some(truth) = &data.truth else { bail!("{} has no truth to score against", data.path.display()) };
     let start = data.times.iter().position(|t| *t == outputs[0].0).unwrap_or(0);

@@ -2,6 +2,7 @@
 
 mod aruco;
 mod bench;
+mod bench_dekf;
 mod calibrate;
 mod collect;
 mod decode;
@@ -15,6 +16,9 @@ mod objects;
 mod plot;
 mod plot_ground_truth;
 pub mod replay;
+pub mod study;
+mod study_tables;
+pub mod track;
 pub mod train;
 pub mod vision;
 
@@ -39,6 +43,8 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Train(args) => train::run(&args, quiet),
         Command::Replay(args) => replay::run_cmd(&args),
         Command::Eval(args) => eval::run_cmd(&args),
+        Command::Track(args) => track::run(&args, quiet),
+        Command::Study(args) => study::run(&args, quiet),
         Command::Vision(args) => vision::run(&args, quiet),
         Command::Label(args) => label::run(&args, quiet),
         Command::Calibrate(args) => calibrate::run(&args, quiet),

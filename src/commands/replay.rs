@@ -1,18 +1,16 @@
 //! `slidetrack replay`: run a dEKF model over a recorded session and write a
 //! copy of it with the model's input and estimates.
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use slidetrack_drivers::session::{
-    DERIVATIVE_CHANNELS_KEY, DekfEstimate, NewChannel, ReadOptions, SlidingEstimate, TactileDerivative,
-    rewrite_session,
+    DekfEstimate, NewChannel, ReadOptions, TactileDerivative, rewrite_session,
 };
 
 use crate::dataset::{TruthSource, load};
-use crate::dekf_run::{CM, load_model, run};
+use crate::dekf_run::{CM, estimate_message, estimate_metadata, load_model, run};
 use crate::plot::{PALETTE, Panel, Series, draw_stacked};
 
 /// Arguments of `replay`.
@@ -45,25 +43,12 @@ pub fn run_cmd(args: &ReplayArgs) -> Result<()> {
         bail!("--out must differ from the input file");
     }
     let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    let meta = BTreeMap::from([
-        (DERIVATIVE_CHANNELS_KEY.to_string(), serde_json::to_string(&model.meta.channels)?),
-        ("model".to_string(), model_name.clone()),
-        ("measurement".to_string(), model.meta.measurement.name().to_string()),
-    ]);
-    let mut derivative = NewChannel::of::<TactileDerivative>(meta);
-    let mut estimate = NewChannel::of::<DekfEstimate>(BTreeMap::from([("model".to_string(), model_name)]));
+    let [derivative_meta, estimate_meta] = estimate_metadata(&model, &model_name)?;
+    let mut derivative = NewChannel::of::<TactileDerivative>(derivative_meta);
+    let mut estimate = NewChannel::of::<DekfEstimate>(estimate_meta);
     for (t, o) in &outputs {
         derivative.push_json(*t, &TactileDerivative { values: o.measurement.clone() })?;
-        let c = o.cov;
-        let s = 1.0 / CM;
-        estimate.push_json(
-            *t,
-            &DekfEstimate(SlidingEstimate {
-                position: o.mean[0] * s,
-                velocity: o.mean[1] * s,
-                covariance: [[c[0][0] * s * s, c[0][1] * s * s], [c[1][0] * s * s, c[1][1] * s * s]],
-            }),
-        )?;
+        estimate.push_json(*t, &estimate_message(o))?;
     }
     let tmp = args.out.with_extension("mcap.partial");
     std::fs::copy(&args.file, &tmp)

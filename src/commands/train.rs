@@ -12,7 +12,7 @@ use slidetrack_estimators::dekf::{
 };
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
 
-use crate::dataset::{ChannelSet, TruthSource, expand, load};
+use crate::dataset::{ChannelSet, SessionData, TruthSource, expand, load};
 use crate::dekf_run::{Inputs, inputs, normalisation, save_model, sequence};
 
 /// What the feature network reads.
@@ -114,14 +114,22 @@ pub struct Trained {
 
 /// Trains a model on `args.sessions` (shared by `train`, `study` and `demo`).
 pub fn fit(args: &TrainArgs, quiet: bool) -> Result<Trained> {
+    let files = expand(&args.sessions)?;
+    let sessions = files.iter().map(|f| load(f, Some(args.truth))).collect::<Result<Vec<_>>>()?;
+    fit_sessions(args, &sessions, quiet)
+}
+
+/// Trains a model on sessions already loaded with their truth (`args.sessions`
+/// is not read; the files recorded in the model are the sessions' paths).
+pub fn fit_sessions(args: &TrainArgs, sessions: &[SessionData], quiet: bool) -> Result<Trained> {
     if !(args.rate_hz.is_finite() && args.rate_hz > 0.0) {
         bail!("--rate-hz must be positive");
     }
     let schedule = parse_schedule(&args.schedule)?;
-    let files = expand(&args.sessions)?;
-    let sessions = files.iter().map(|f| load(f, Some(args.truth))).collect::<Result<Vec<_>>>()?;
-    let tactile_rate = sessions[0].rate_hz;
-    for s in &sessions {
+    let Some(first) = sessions.first() else { bail!("no sessions to train on") };
+    let files: Vec<&Path> = sessions.iter().map(|s| s.path.as_path()).collect();
+    let tactile_rate = first.rate_hz;
+    for s in sessions {
         if (s.rate_hz - tactile_rate).abs() > 0.05 * tactile_rate {
             bail!(
                 "{}: tactile rate {:.1} Hz differs from {:.1} Hz of {}",

@@ -67,6 +67,14 @@ pub enum VisionError {
         /// What is wrong.
         detail: String,
     },
+    /// A number or setting given to the crate is not usable.
+    #[error("{what}: {detail}")]
+    BadValue {
+        /// Which value.
+        what: &'static str,
+        /// What is wrong.
+        detail: String,
+    },
     /// Reading or writing a session failed.
     #[error(transparent)]
     Session(#[from] SessionError),

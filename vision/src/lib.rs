@@ -24,6 +24,7 @@ pub mod cloud;
 mod error;
 pub mod eval;
 pub mod flow;
+pub mod inhand;
 pub mod input;
 pub mod model;
 pub mod online;

@@ -77,3 +77,59 @@ fn both_trackers_follow_the_sliding_object() {
         assert!(worst < limit, "{}: {worst}", kind.name());
     }
 }
+
+/// The API `slidetrack track --vision` uses: the rig's geometry, the
+/// simulator's travel per camera frame, the default slow network (outliers
+/// included), estimates along the sliding axis and on the session channels.
+#[test]
+fn in_hand_vision_reports_travel_along_the_sliding_axis_and_records_it() {
+    use slidetrack_drivers::session::{ReadOptions, Recorder, SessionInfo};
+    use slidetrack_vision::inhand::{InHandVision, InHandVisionConfig};
+
+    let object = ObjectConfig::load("box").unwrap();
+    let config = InHandVisionConfig::new(TrackerKind::Roft, 3);
+    let camera = SimCameraConfig::default();
+    for (start, axis) in [([0.1, 0.0, 0.0], [0.0; 3]), ([f64::NAN, 0.0, 0.0], [0.0, 0.0, -1.0])] {
+        let e = InHandVision::new(&config, &camera, &object.geometry, start, axis).err().unwrap();
+        assert!(e.to_string().contains("sliding axis") || e.to_string().contains("object start"), "{e}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    for kind in [TrackerKind::MaskUkf, TrackerKind::Roft] {
+        let path = dir.path().join(format!("{}.mcap", kind.name()));
+        let recorder = Recorder::create(&path, Default::default()).unwrap();
+        let mut vision = InHandVision::new(
+            &InHandVisionConfig::new(kind, 3),
+            &SimCameraConfig::default(),
+            &object.geometry,
+            [0.10, 0.0, 0.0],
+            [0.0, 0.0, -1.0],
+        )
+        .unwrap()
+        .with_recording(recorder.logger(), false)
+        .unwrap();
+        let (mut worst_p, mut tracked): (f64, usize) = (0.0, 0);
+        for k in 0..45u64 {
+            let t = k as f64 / 30.0;
+            let (pose, v) = hand_from_object(t);
+            let travel = -pose.translation.vector.z;
+            let step = vision.on_frame(TimeNs((t * 1e9).round() as u64), k, travel, -v.z).unwrap();
+            if let (Some(p), Some(v)) = (step.position_m, step.velocity_mps) {
+                assert!(p.is_finite() && v.is_finite());
+                tracked += 1;
+                if k >= 12 {
+                    worst_p = worst_p.max((p - travel).abs());
+                }
+            }
+        }
+        assert!(vision.on_frame(TimeNs(0), 99, 0.0, 0.0).is_err(), "time going back is refused");
+        assert!(vision.on_frame(TimeNs(2_000_000_000), 99, f64::NAN, 0.0).is_err());
+        recorder.finish().unwrap();
+        println!("{}: worst travel error after 0.4 s {:.2} cm", kind.name(), worst_p * 100.0);
+        assert_eq!(tracked, 45, "started at the rig's known pose");
+        assert!(worst_p < 0.02, "{}: {worst_p}", kind.name());
+        let info = SessionInfo::read(&path, ReadOptions::default()).unwrap();
+        for topic in slidetrack_vision::record::EstimateChannels::topics(kind) {
+            assert_eq!(info.channel(topic).map(|c| c.message_count), Some(45), "{topic}");
+        }
+    }
+}

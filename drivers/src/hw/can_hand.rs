@@ -120,16 +120,19 @@ impl HandActuator for CanHand {
 }
 
 impl Drop for CanHand {
+    /// Stops the heartbeat, then sends the release: the release is the last
+    /// frame the hand gets from us.
     fn drop(&mut self) {
-        if let Err(e) = self.send_release() {
-            tracing::warn!("releasing on drop: {e}");
-        }
+        self.state.store(HandState::Released as u8, Ordering::SeqCst);
         if let Some(hb) = self.heartbeat.take() {
             // Sending fails only when the thread is gone already.
             let _ = hb.stop.send(());
             if hb.thread.join().is_err() {
                 tracing::warn!("{}: the heartbeat thread panicked", self.device);
             }
+        }
+        if let Err(e) = self.send_release() {
+            tracing::warn!("releasing on drop: {e}");
         }
     }
 }

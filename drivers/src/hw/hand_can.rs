@@ -230,4 +230,37 @@ mod tests {
         assert!(HandCanIds { release_id: 0x900, ..ids }.validate().is_err());
         ids.validate().unwrap();
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(
+            std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(256)
+        ))]
+
+        /// Any frame decodes to a message, a typed error or nothing; never a panic.
+        #[test]
+        fn arbitrary_frames_never_panic(
+            id in 0x2F0u32..0x310,
+            extended: bool,
+            data in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..=8),
+        ) {
+            let frame = CanFrame::new(id, extended, &data).expect("a valid frame");
+            let decoded = HandCanIds::default().decode(&frame);
+            let ours = !extended && (0x300..=0x302).contains(&id);
+            proptest::prop_assert!(ours || decoded == Ok(None));
+        }
+
+        /// Set-points within the i16 millivolt range survive the round trip to 0.5 mV.
+        #[test]
+        fn set_points_round_trip(counter: u8, volts in proptest::array::uniform3(-32.0f64..32.0)) {
+            let ids = HandCanIds::default();
+            let Ok(Some(HandMessage::Setpoint { counter: c, volts: back })) = ids.decode(&ids.setpoint(counter, volts))
+            else {
+                return Err(proptest::test_runner::TestCaseError::fail("not a set-point"));
+            };
+            proptest::prop_assert_eq!(c, counter);
+            for (a, b) in volts.iter().zip(back) {
+                proptest::prop_assert!((a - b).abs() <= 0.0005 + 1e-12, "{} vs {}", a, b);
+            }
+        }
+    }
 }

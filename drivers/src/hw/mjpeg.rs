@@ -189,4 +189,4 @@ pub fn z16_to_png(z16: &[u8], width: u32, height: u32) -> Option<EncodedImage> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -140,15 +140,37 @@ fn pick(taxels: &[Option<RawTaxel>], board_taxels: [usize; 3]) -> Option<[RawTax
 pub struct SerialCaptureDecoder<R: Read> {
     input: R,
     decoder: SerialDecoder,
+    scans: CaptureScans,
+    buf: Box<[u8]>,
+    bytes: u64,
+    finished: bool,
+    error: Option<std::io::Error>,
+}
+
+/// Module frames of a capture turned into timed scans.
+struct CaptureScans {
     assembler: ModuleScanAssembler,
     unwrapper: SequenceUnwrapper,
     period_ns: f64,
     first: Option<u64>,
     last_t: TimeNs,
     ready: std::collections::VecDeque<TactileSample>,
-    buf: Box<[u8]>,
-    bytes: u64,
-    error: Option<std::io::Error>,
+}
+
+impl CaptureScans {
+    fn on_event(&mut self, event: SerialEvent) {
+        if let SerialEvent::Frame(frame) = event
+            && let Some((sequence, raw)) = self.assembler.push(&frame)
+        {
+            let sequence = self.unwrapper.unwrap(sequence);
+            let first = *self.first.get_or_insert(sequence);
+            // A scan counter that steps back (reordered frames) does not take time back.
+            let t = TimeNs((sequence.saturating_sub(first) as f64 * self.period_ns).round() as u64)
+                .max(self.last_t);
+            self.last_t = t;
+            self.ready.push_back(TactileSample { t, sequence, raw });
+        }
+    }
 }
 
 impl<R: Read> SerialCaptureDecoder<R> {
@@ -157,21 +179,27 @@ impl<R: Read> SerialCaptureDecoder<R> {
         SerialCaptureDecoder {
             input,
             decoder: SerialDecoder::new(),
-            assembler: ModuleScanAssembler::new(&cfg.fingers),
-            unwrapper: SequenceUnwrapper::default(),
-            period_ns: 1e9 / rate_hz.max(1e-6),
-            first: None,
-            last_t: TimeNs::ZERO,
-            ready: Default::default(),
+            scans: CaptureScans {
+                assembler: ModuleScanAssembler::new(&cfg.fingers),
+                unwrapper: SequenceUnwrapper::default(),
+                period_ns: 1e9 / rate_hz.max(1e-6),
+                first: None,
+                last_t: TimeNs::ZERO,
+                ready: Default::default(),
+            },
             buf: vec![0; 64 << 10].into_boxed_slice(),
             bytes: 0,
+            finished: false,
             error: None,
         }
     }
 
     /// The decoder counters so far.
     pub fn counters(&self) -> DecoderCounters {
-        DecoderCounters { incomplete_scans: self.assembler.incomplete_scans(), ..self.decoder.counters() }
+        DecoderCounters {
+            incomplete_scans: self.scans.assembler.incomplete_scans(),
+            ..self.decoder.counters()
+        }
     }
 
     /// Bytes read so far.
@@ -195,14 +223,22 @@ impl<R: Read> Iterator for SerialCaptureDecoder<R> {
 
     fn next(&mut self) -> Option<TactileSample> {
         loop {
-            if let Some(s) = self.ready.pop_front() {
+            if let Some(s) = self.scans.ready.pop_front() {
                 return Some(s);
             }
-            if self.error.is_some() {
+            if self.error.is_some() || self.finished {
                 return None;
             }
             let n = match self.input.read(&mut self.buf) {
-                Ok(0) => return None,
+                Ok(0) => {
+                    // The end of the capture: frames a cut one was hiding come out now.
+                    self.finished = true;
+                    self.decoder.finish();
+                    while let Some(event) = self.decoder.next_event() {
+                        self.scans.on_event(event);
+                    }
+                    continue;
+                }
                 Ok(n) => n,
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
                 Err(e) => {
@@ -211,30 +247,8 @@ impl<R: Read> Iterator for SerialCaptureDecoder<R> {
                 }
             };
             self.bytes += n as u64;
-            let SerialCaptureDecoder {
-                decoder,
-                assembler,
-                unwrapper,
-                ready,
-                buf,
-                first,
-                last_t,
-                period_ns,
-                ..
-            } = self;
-            decoder.feed(&buf[..n], |event| {
-                if let SerialEvent::Frame(frame) = event
-                    && let Some((sequence, raw)) = assembler.push(&frame)
-                {
-                    let sequence = unwrapper.unwrap(sequence);
-                    let first = *first.get_or_insert(sequence);
-                    // A scan counter that steps back (reordered frames) does not take time back.
-                    let t = TimeNs((sequence.saturating_sub(first) as f64 * *period_ns).round() as u64)
-                        .max(*last_t);
-                    *last_t = t;
-                    ready.push_back(TactileSample { t, sequence, raw });
-                }
-            });
+            let scans = &mut self.scans;
+            self.decoder.feed(&self.buf[..n], |event| scans.on_event(event));
         }
     }
 }

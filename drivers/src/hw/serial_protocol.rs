@@ -180,11 +180,17 @@ pub enum SerialEvent {
 /// - A candidate frame that fails its CRC while the decoder is in sync is a
 ///   CRC error; candidates tried while resynchronising (sync bytes that turn
 ///   out to be payload) are part of the resync and are not counted.
+/// - A candidate cut short waits for the rest of its bytes, which may hold
+///   whole frames when its length field was garbage. At the end of a stream
+///   (a capture file), [`finish`](Self::finish) says no more bytes will
+///   come: the decoder then looks for frames after the cut candidate's sync
+///   bytes, and only an unfinishable tail stays [`buffered`](Self::buffered).
 pub struct SerialDecoder {
     buf: Box<[u8]>,
     start: usize,
     end: usize,
     in_sync: bool,
+    at_end: bool,
     skipped: u64,
     last_sequence: Box<[Option<u16>; 256]>,
     queued: [Option<SerialEvent>; 2],
@@ -205,6 +211,7 @@ impl SerialDecoder {
             start: 0,
             end: 0,
             in_sync: true,
+            at_end: false,
             skipped: 0,
             last_sequence: Box::new([None; 256]),
             queued: [None, None],
@@ -213,7 +220,11 @@ impl SerialDecoder {
     }
 
     /// Takes as many of `bytes` as fit in the buffer; returns how many.
+    /// Pushing bytes after [`finish`](Self::finish) continues the stream.
     pub fn push(&mut self, bytes: &[u8]) -> usize {
+        if !bytes.is_empty() {
+            self.at_end = false;
+        }
         if self.start > 0 && self.buf.len() - self.end < bytes.len() {
             self.buf.copy_within(self.start..self.end, 0);
             self.end -= self.start;
@@ -237,6 +248,13 @@ impl SerialDecoder {
                 return;
             }
         }
+    }
+
+    /// Declares the end of the stream: a frame cut short will never be
+    /// completed, so [`next_event`](Self::next_event) goes on to the frames
+    /// that may follow its sync bytes. Drain `next_event` afterwards.
+    pub fn finish(&mut self) {
+        self.at_end = true;
     }
 
     /// The counters so far.
@@ -270,16 +288,15 @@ impl SerialDecoder {
                 return None;
             }
             if avail[..2] != SYNC {
-                // Skip to the next possible start: a first sync byte followed
-                // by the second, or a first sync byte at the very end.
-                let skip = (1..avail.len())
-                    .find(|&i| avail[i] == SYNC[0] && avail.get(i + 1).is_none_or(|&b| b == SYNC[1]))
-                    .unwrap_or(avail.len());
+                let skip = next_start(avail).unwrap_or(avail.len());
                 self.in_sync = false;
                 self.discard(skip);
                 continue;
             }
             if avail.len() < HEADER_LEN {
+                if self.skip_cut_candidate() {
+                    continue;
+                }
                 return None;
             }
             let payload_len = usize::from(u16::from_be_bytes([avail[2], avail[3]]));
@@ -290,6 +307,9 @@ impl SerialDecoder {
             }
             let total = HEADER_LEN + payload_len + CRC_LEN;
             if avail.len() < total {
+                if self.skip_cut_candidate() {
+                    continue;
+                }
                 return None;
             }
             let module = avail[4];
@@ -310,6 +330,18 @@ impl SerialDecoder {
             self.start += total;
             return Some(self.accept(frame));
         }
+    }
+
+    /// At the end of the stream, discards a candidate frame that was cut
+    /// short up to the next possible start; false when there is none (or the
+    /// stream goes on).
+    fn skip_cut_candidate(&mut self) -> bool {
+        let Some(skip) = self.at_end.then(|| next_start(&self.buf[self.start..self.end])).flatten() else {
+            return false;
+        };
+        self.in_sync = false;
+        self.discard(skip);
+        true
     }
 
     /// Counts a good frame; returns the first of its events and queues the rest.
@@ -340,6 +372,12 @@ impl SerialDecoder {
         // `first` is always set: it is the frame when nothing precedes it.
         first.unwrap_or(SerialEvent::Frame(frame))
     }
+}
+
+/// The next possible frame start after the first byte of `avail`: a first
+/// sync byte followed by the second, or a first sync byte at the very end.
+fn next_start(avail: &[u8]) -> Option<usize> {
+    (1..avail.len()).find(|&i| avail[i] == SYNC[0] && avail.get(i + 1).is_none_or(|&b| b == SYNC[1]))
 }
 
 #[cfg(test)]

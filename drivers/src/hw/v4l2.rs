@@ -21,7 +21,7 @@ use v4l::{Device, Format, FourCC};
 use super::config::{V4l2CameraConfig, V4l2PixelFormat};
 use super::io_error_kind;
 use super::mjpeg;
-use crate::{Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, Frame, TimeNs};
+use crate::{Camera, CameraIntrinsics, Clock, DeviceError, EncodedImage, ErrorKind, Frame, Image, TimeNs};
 
 /// Frames the capture thread may hold ahead of the trial loop; beyond this
 /// the newest are dropped (the gap shows in `sequence`).
@@ -175,12 +175,73 @@ struct CaptureThread {
     stop: Arc<AtomicBool>,
 }
 
-/// `session time - monotonic time` (ns), captured once at the start.
-fn monotonic_offset_ns(clock: &dyn Clock) -> Option<i128> {
-    let mono = clock_gettime(ClockId::CLOCK_MONOTONIC).ok()?;
-    let session = clock.now();
-    let mono_ns = i128::from(mono.tv_sec()) * 1_000_000_000 + i128::from(mono.tv_nsec());
-    Some(i128::from(session.0) - mono_ns)
+/// The mapping from the driver's buffer timestamps (`CLOCK_MONOTONIC`) to
+/// the session clock: an offset captured once, when streaming starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DriverClockMap {
+    /// `session time - monotonic time` (ns).
+    pub offset_ns: i128,
+}
+
+impl DriverClockMap {
+    /// Largest age of a mapped exposure (ns); an older one is a clock mix-up.
+    pub const MAX_AGE_NS: i128 = 1_000_000_000;
+
+    /// Captures the offset between `clock` and the host's monotonic clock
+    /// now; `None` when the monotonic clock cannot be read.
+    pub fn capture(clock: &dyn Clock) -> Option<DriverClockMap> {
+        let mono = clock_gettime(ClockId::CLOCK_MONOTONIC).ok()?;
+        let session = clock.now();
+        let mono_ns = i128::from(mono.tv_sec()) * 1_000_000_000 + i128::from(mono.tv_nsec());
+        Some(DriverClockMap { offset_ns: i128::from(session.0) - mono_ns })
+    }
+
+    /// The session time of an exposure the driver stamped `device_ns`
+    /// (monotonic clock, ns) when the frame arrives at session time `now`:
+    /// `now` itself when the mapped time lies in the future or more than
+    /// [`MAX_AGE_NS`](Self::MAX_AGE_NS) in the past (a driver whose clock is
+    /// not the monotonic one).
+    pub fn session_time(&self, device_ns: i128, now: TimeNs) -> TimeNs {
+        let t = device_ns + self.offset_ns;
+        let now_ns = i128::from(now.0);
+        if (now_ns - Self::MAX_AGE_NS..=now_ns).contains(&t) {
+            u64::try_from(t).map(TimeNs).unwrap_or(now)
+        } else {
+            now
+        }
+    }
+}
+
+/// What a captured buffer of `format` (`width` x `height` px) becomes:
+/// gray pixels for detection and the bytes to record.
+///
+/// - MJPG: the bytes as the camera sent them (only the standard Huffman
+///   tables inserted when the frame has none; never re-encoded), and their
+///   luma when they decode (`None` for a corrupt frame, still recorded).
+/// - YUYV: the luma, and the colour image JPEG-encoded at `jpeg_quality`.
+/// - Z16: no pixels, the depth as 16-bit PNG.
+///
+/// A buffer too short for its size gives `None` for what it cannot fill.
+pub fn frame_content(
+    format: V4l2PixelFormat,
+    width: u32,
+    height: u32,
+    jpeg_quality: u8,
+    bytes: &[u8],
+) -> (Option<Image>, Option<EncodedImage>) {
+    match format {
+        V4l2PixelFormat::Mjpg => {
+            let jpeg = mjpeg::with_huffman_tables(bytes).into_owned();
+            let pixels = mjpeg::decode_gray(&jpeg);
+            (pixels, Some(EncodedImage { format: "jpeg".into(), bytes: jpeg }))
+        }
+        V4l2PixelFormat::Yuyv => {
+            let encoded = mjpeg::yuyv_to_rgb(bytes, width, height)
+                .and_then(|rgb| crate::sim::camera::encode_jpeg(&rgb, jpeg_quality).ok());
+            (mjpeg::yuyv_to_gray(bytes, width, height), encoded)
+        }
+        V4l2PixelFormat::Z16 => (None, mjpeg::z16_to_png(bytes, width, height)),
+    }
 }
 
 impl CaptureThread {
@@ -193,7 +254,7 @@ impl CaptureThread {
             }
         };
         stream.set_timeout(self.timeout);
-        let offset = monotonic_offset_ns(self.clock.as_ref());
+        let clock_map = DriverClockMap::capture(self.clock.as_ref());
         let mut dropped = 0u64;
         while !self.stop.load(Ordering::SeqCst) {
             let (bytes, meta) = match CaptureStream::next(&mut stream) {
@@ -209,7 +270,7 @@ impl CaptureThread {
                 }
             };
             let used = (meta.bytesused as usize).min(bytes.len());
-            let frame = self.frame(&bytes[..used], &meta, offset);
+            let frame = self.frame(&bytes[..used], &meta, clock_map);
             match tx.try_send(Ok(frame)) {
                 Ok(()) => {}
                 Err(TrySendError::Full(_)) => {
@@ -221,40 +282,24 @@ impl CaptureThread {
         }
     }
 
-    fn frame(&self, bytes: &[u8], meta: &Metadata, offset: Option<i128>) -> Frame {
+    fn frame(&self, bytes: &[u8], meta: &Metadata, clock_map: Option<DriverClockMap>) -> Frame {
         let now = self.clock.now();
         let monotonic = meta.flags & BufferFlags::TIMESTAMP_MASK == BufferFlags::TIMESTAMP_MONOTONIC;
-        let t = match offset.filter(|_| monotonic) {
-            Some(offset) => {
+        let t = match clock_map.filter(|_| monotonic) {
+            Some(map) => {
                 let device_ns =
                     i128::from(meta.timestamp.sec) * 1_000_000_000 + i128::from(meta.timestamp.usec) * 1000;
-                let t = device_ns + offset;
-                // An exposure in the future or more than a second old is a clock mix-up.
-                if t <= i128::from(now.0) && t + 1_000_000_000 >= i128::from(now.0) {
-                    TimeNs(t as u64)
-                } else {
-                    now
-                }
+                map.session_time(device_ns, now)
             }
             None => now,
         };
-        let (w, h) = (self.width, self.height);
-        let (pixels, encoded) = match self.format {
-            V4l2PixelFormat::Mjpg => {
-                let jpeg = mjpeg::with_huffman_tables(bytes).into_owned();
-                let pixels = mjpeg::decode_gray(&jpeg);
-                if pixels.is_none() {
-                    tracing::debug!("{}: frame {} does not decode", self.device, meta.sequence);
-                }
-                (pixels, Some(crate::EncodedImage { format: "jpeg".into(), bytes: jpeg }))
-            }
-            V4l2PixelFormat::Yuyv => {
-                let encoded = mjpeg::yuyv_to_rgb(bytes, w, h)
-                    .and_then(|rgb| crate::sim::camera::encode_jpeg(&rgb, self.jpeg_quality).ok());
-                (mjpeg::yuyv_to_gray(bytes, w, h), encoded)
-            }
-            V4l2PixelFormat::Z16 => (None, mjpeg::z16_to_png(bytes, w, h)),
-        };
+        let (pixels, encoded) = frame_content(self.format, self.width, self.height, self.jpeg_quality, bytes);
+        if self.format == V4l2PixelFormat::Mjpg && pixels.is_none() {
+            tracing::debug!("{}: frame {} does not decode", self.device, meta.sequence);
+        }
         Frame { t, sequence: u64::from(meta.sequence), pixels, encoded }
     }
 }
+
+#[cfg(test)]
+mod tests;

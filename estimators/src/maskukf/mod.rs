@@ -227,7 +227,8 @@ impl MaskUkf {
         let c = &self.config;
         let measured = match input {
             CloudInput::Missing => None,
-            CloudInput::Cloud { points_in_camera: [], .. } => None,
+            // An empty mask; a mask without valid depth is the low-ratio case.
+            CloudInput::Cloud { points_in_camera: [], mask_pixels: 0 } => None,
             CloudInput::Cloud { points_in_camera, mask_pixels } => Some((points_in_camera, mask_pixels)),
         };
         let Some((all, mask_pixels)) = measured else {

@@ -15,7 +15,7 @@ use opencv::core::{Mat, Vector};
 use opencv::imgcodecs;
 use opencv::prelude::*;
 use slidetrack_drivers::sim::rgbd::{DepthImage, FastSequence, ObjectTruth, RgbdFrame};
-use slidetrack_drivers::{CameraIntrinsics, Image, PixelFormat};
+use slidetrack_drivers::{CameraIntrinsics, EncodedImage, Image, PixelFormat};
 use slidetrack_estimators::roft::Mask;
 
 use crate::VisionError;
@@ -93,6 +93,34 @@ pub fn decode_color(bytes: &[u8]) -> Result<Image, VisionError> {
     let mat = imgcodecs::imdecode(&Vector::<u8>::from_slice(bytes), imgcodecs::IMREAD_COLOR)
         .cv("imdecode colour")?;
     bgr_mat_to_rgb(&mat, "colour image")
+}
+
+/// Encodes an RGB8 colour image as JPEG (`quality` 1-100) for
+/// `foxglove.CompressedImage` channels.
+pub fn encode_color_jpeg(image: &Image, quality: i32) -> Result<EncodedImage, VisionError> {
+    if image.format != PixelFormat::Rgb8
+        || image.data.len() != image.width as usize * image.height as usize * 3
+        || image.width == 0
+    {
+        return Err(VisionError::BadImage {
+            what: "colour image",
+            detail: format!(
+                "{}x{} px {:?} with {} bytes is not RGB8",
+                image.width,
+                image.height,
+                image.format,
+                image.data.len()
+            ),
+        });
+    }
+    let flat = Mat::from_slice(&image.data).cv("colour bytes")?;
+    let rgb = flat.reshape(3, image.height as i32).cv("colour reshape")?;
+    let mut bgr = Mat::default();
+    opencv::imgproc::cvt_color_def(&rgb, &mut bgr, opencv::imgproc::COLOR_RGB2BGR).cv("cvtColor")?;
+    let mut out = Vector::<u8>::new();
+    let params = Vector::<i32>::from_slice(&[imgcodecs::IMWRITE_JPEG_QUALITY, quality.clamp(1, 100)]);
+    imgcodecs::imencode(".jpg", &bgr, &mut out, &params).cv("imencode JPEG")?;
+    Ok(EncodedImage { format: "jpeg".into(), bytes: out.to_vec() })
 }
 
 /// Decodes a 16-bit PNG depth image; `scale_m` metres per unit.

@@ -49,7 +49,7 @@ fn encode(image: &Image) -> Vec<u8> {
 }
 
 /// The frame without its DHT segments, as a UVC camera sends it.
-fn strip_dht(jpeg: &[u8]) -> Vec<u8> {
+pub(crate) fn strip_dht(jpeg: &[u8]) -> Vec<u8> {
     let mut out = jpeg[..2].to_vec();
     let mut pos = 2;
     while jpeg[pos + 1] != 0xDA {

@@ -125,3 +125,80 @@ fn a_serial_capture_decodes_with_times_from_the_scan_counter() {
     assert_eq!(d.trailing_bytes(), 3);
     assert_eq!(d.bytes(), bytes.len() as u64);
 }
+
+mod arbitrary {
+    //! Arbitrary and damaged captures: no panic, bounded memory, and only
+    //! whole scans with non-decreasing times come out.
+
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// A line of a log: a plausible frame (maybe of the board), or junk bytes.
+    fn arb_line() -> impl Strategy<Value = Vec<u8>> {
+        prop_oneof![
+            3 => (0x700u32..0x720, proptest::collection::vec(any::<u8>(), 0..=8), 0u64..20_000_000)
+                .prop_map(|(id, data, t_us)| {
+                    let frame = CanFrame::standard(id, &data).expect("a standard id and <= 8 bytes");
+                    candump_line(1_700_000_000_000_000 + t_us, "can0", &frame).into_bytes()
+                }),
+            1 => proptest::collection::vec(any::<u8>(), 0..120),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(
+            std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(256)
+        ))]
+
+        /// Logs of frames in any order, junk lines (invalid UTF-8 too) and
+        /// random byte damage.
+        #[test]
+        fn arbitrary_candump_logs_never_panic(
+            lines in proptest::collection::vec(arb_line(), 0..300),
+            damage in proptest::collection::vec((any::<usize>(), any::<u8>()), 0..20),
+        ) {
+            let mut text = lines.join(&b'\n');
+            for (at, byte) in damage {
+                if !text.is_empty() {
+                    let k = at % text.len();
+                    text[k] = byte;
+                }
+            }
+            let mut d = CanLogDecoder::new(text.as_slice(), &can_cfg(), None);
+            let mut last = TimeNs::ZERO;
+            let mut n = 0u64;
+            for sample in d.by_ref() {
+                prop_assert!(sample.t >= last);
+                last = sample.t;
+                n += 1;
+            }
+            prop_assert!(d.bad_lines() <= d.lines());
+            prop_assert!(n * 16 <= d.counters().frames, "{} scans from {} frames", n, d.counters().frames);
+        }
+
+        /// Raw captures of arbitrary bytes with valid frames spliced in.
+        #[test]
+        fn arbitrary_serial_captures_never_panic(
+            junk in proptest::collection::vec(any::<u8>(), 0..6000),
+            frames in proptest::collection::vec((0u8..4, any::<u16>(), 1usize..20, any::<usize>()), 0..40),
+        ) {
+            let mut bytes = junk;
+            for (module, sequence, taxels, at) in frames {
+                let values: Vec<RawTaxel> = (0..taxels).map(|t| [t as u16, sequence, 7]).collect();
+                let f = ModuleFrame::new(module, sequence, &values).expect("1..=64 taxels").encode();
+                let at = if bytes.is_empty() { 0 } else { at % bytes.len() };
+                bytes.splice(at..at, f);
+            }
+            let mut d = SerialCaptureDecoder::new(bytes.as_slice(), &SerialTactileConfig::default(), 1000.0);
+            let mut last = TimeNs::ZERO;
+            for sample in d.by_ref() {
+                prop_assert!(sample.t >= last);
+                last = sample.t;
+            }
+            prop_assert_eq!(d.bytes(), bytes.len() as u64);
+            prop_assert!(d.trailing_bytes() <= crate::hw::serial_protocol::DECODER_CAPACITY);
+            prop_assert!(d.error().is_none());
+        }
+    }
+}

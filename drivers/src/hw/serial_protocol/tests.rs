@@ -168,6 +168,32 @@ fn truncation_keeps_the_partial_frame_until_the_rest_arrives() {
 }
 
 #[test]
+fn at_the_end_of_a_capture_frames_inside_a_cut_candidate_are_recovered() {
+    // A frame cut after its sync and first length byte, then a garbage byte:
+    // together they read as a 186-byte frame, which would swallow the three
+    // frames that follow if more bytes were still to come.
+    let (frames, bytes) = stream(3, 1, 8);
+    let mut capture = vec![0xA5, 0x5A, 0x00, 0xBA];
+    capture.extend_from_slice(&bytes);
+    let mut d = SerialDecoder::new();
+    assert!(frames_of(&decode_all(&mut d, &capture)).is_empty(), "waiting for the rest of the candidate");
+    d.finish();
+    let mut events = Vec::new();
+    while let Some(e) = d.next_event() {
+        events.push(e);
+    }
+    assert_eq!(events[0], SerialEvent::Resync { skipped_bytes: 4 });
+    assert_eq!(frames_of(&events), frames);
+    assert_eq!(d.buffered(), 0);
+    // A tail that cannot be a frame stays buffered, for the caller to report.
+    let mut d = SerialDecoder::new();
+    decode_all(&mut d, &[0xA5, 0x5A, 0x00]);
+    d.finish();
+    assert_eq!(d.next_event(), None);
+    assert_eq!(d.buffered(), 3);
+}
+
+#[test]
 fn reordered_and_repeated_frames_are_decoded_and_flagged_as_gaps() {
     let fs: Vec<ModuleFrame> = [0u16, 1, 3, 2, 4, 4, 5].iter().map(|&s| frame(0, s, 2)).collect();
     let mut bytes = Vec::new();
@@ -218,6 +244,10 @@ proptest! {
             d.feed(piece, |e| if let SerialEvent::Frame(_) = e { frames += 1 });
             prop_assert!(d.buffered() <= DECODER_CAPACITY);
         }
+        d.finish();
+        while let Some(e) = d.next_event() {
+            if let SerialEvent::Frame(_) = e { frames += 1 }
+        }
         let c = d.counters();
         prop_assert_eq!(c.frames, frames);
         prop_assert!(c.bytes_skipped + d.buffered() as u64 <= bytes.len() as u64);
@@ -250,6 +280,10 @@ proptest! {
         let mut decoded = Vec::new();
         for piece in bytes.chunks(chunk) {
             d.feed(piece, |e| if let SerialEvent::Frame(f) = e { decoded.push(f) });
+        }
+        d.finish();
+        while let Some(e) = d.next_event() {
+            if let SerialEvent::Frame(f) = e { decoded.push(f) }
         }
         // A damaged frame can only disappear; its neighbours survive.
         prop_assert_eq!(decoded, intact);

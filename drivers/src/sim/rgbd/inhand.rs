@@ -10,9 +10,9 @@ use super::frame::{ObjectTruth, RgbdFrame};
 use super::mesh::TriangleMesh;
 use super::scene::{RgbdScene, RgbdSceneConfig};
 use super::texture::Texture;
-use crate::TimeNs;
 use crate::sim::ObjectGeometry;
 use crate::sim::camera::SimCameraConfig;
+use crate::{CameraIntrinsics, TimeNs};
 
 /// The in-hand scene's RGB-D rendering.
 pub struct InHandRgbd {
@@ -44,6 +44,11 @@ impl InHandRgbd {
     /// The camera pose in the hand frame.
     pub fn hand_from_camera(&self) -> &Isometry3<f64> {
         &self.hand_from_camera
+    }
+
+    /// The RGB-D camera's intrinsics (the rig camera's, without distortion).
+    pub fn intrinsics(&self) -> &CameraIntrinsics {
+        &self.scene.config().intrinsics
     }
 
     /// The object's mesh.

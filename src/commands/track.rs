@@ -1,0 +1,134 @@
+//! `slidetrack track`: the controlled-sliding experiment with the dEKF live
+//! on every tactile scan and a causal Kalman filter on the marker, recorded
+//! to one session and shown in the terminal.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use anyhow::{Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use slidetrack_calibration::ground_truth::default_params;
+use slidetrack_drivers::sim::ObjectConfig;
+
+use crate::cli::RigKind;
+use crate::dekf_run::load_model;
+use crate::rig_config::RigConfig;
+use crate::tracking::{LiveStatus, LiveTrackers};
+use crate::trial::{ExtensionFactory, TrialSpec, build_sim_rig, prepare_out_dir, record_trial_with};
+
+/// Arguments of `track`.
+#[derive(Debug, Args, Clone)]
+pub struct TrackArgs {
+    /// The rig to run on.
+    #[arg(long, value_enum, default_value_t = RigKind::Sim)]
+    pub rig: RigKind,
+    /// Object: a built-in name (box, bottle, mustard) or a path to an object .toml.
+    #[arg(long, default_value = "box")]
+    pub object: String,
+    /// dEKF model file (.safetensors) from `slidetrack train`.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Duration of the sliding cycles (s).
+    #[arg(long, default_value_t = 60.0)]
+    pub duration: f64,
+    /// Seed of the simulated rig.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Trial number (the simulated rig's per-trial jitter derives from it).
+    #[arg(long, default_value_t = 0)]
+    pub trial: u32,
+    /// Session file to write (default: sessions/<object>-s<seed>-t<trial>-track.mcap).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Rig configuration (TOML); the built-in simulated rig when absent.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// No camera: the dEKF alone (no marker filter).
+    #[arg(long)]
+    pub no_camera: bool,
+    /// Run the simulated rig in wall-clock time (as the real rig does).
+    #[arg(long)]
+    pub realtime: bool,
+    /// Replace the session file if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
+    if !(args.duration.is_finite() && args.duration > 0.0) {
+        bail!("--duration must be a positive number of seconds, got {}", args.duration);
+    }
+    let model = load_model(&args.model)?;
+    let object = ObjectConfig::load(&args.object)?;
+    let rig = RigConfig::load(args.config.as_deref())?;
+    let path = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from("sessions")
+            .join(format!("{}-s{}-t{:03}-track.mcap", object.name, args.seed, args.trial))
+    });
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        prepare_out_dir(dir)?;
+    }
+    let spec = TrialSpec {
+        rig: &rig,
+        object: &object,
+        seed: args.seed,
+        trial: args.trial,
+        duration_s: args.duration,
+        camera: !args.no_camera,
+        realtime: args.realtime,
+        overwrite: args.overwrite,
+        path,
+    };
+    if spec.path.exists() && !spec.overwrite {
+        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
+    }
+    let setup = match args.rig {
+        RigKind::Sim => build_sim_rig(&spec)?,
+        RigKind::Hw => crate::hw_rig::build_hw_rig(&spec)?,
+    };
+    let rate = setup.tactile_info.rate_hz;
+    let expected = model.meta.tactile_rate_hz;
+    if (rate - expected).abs() > 0.05 * expected {
+        bail!(
+            "{}: the tactile source runs at {rate:.1} Hz, but the model was trained at {expected:.1} Hz",
+            args.model.display()
+        );
+    }
+
+    let display = if quiet { ProgressBar::hidden() } else { ProgressBar::new_spinner() };
+    display.set_style(
+        ProgressStyle::with_template("{msg}").unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    display.enable_steady_tick(std::time::Duration::from_millis(100));
+    let status = Arc::new(Mutex::new(LiveStatus::default()));
+    let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    let with_marker = setup.tracking.is_some();
+    let (s, d) = (status.clone(), display.clone());
+    let extension: ExtensionFactory = Box::new(move |logger| {
+        let marker = with_marker.then(default_params);
+        Ok(Box::new(LiveTrackers::new(logger, &model, &model_name, marker, s, d)?) as Box<_>)
+    });
+    let stop = super::stop_flag();
+    let mut progress = |_t: slidetrack_drivers::TimeNs| {};
+    let report = record_trial_with(setup, &spec, &stop, &mut progress, Some(extension))?;
+    display.finish_and_clear();
+
+    println!("{}", report.summary_line());
+    let status = status.lock().map(|s| s.clone()).unwrap_or_default();
+    println!("  dEKF: {} steps; /tactile/derivative, /estimate/dekf recorded", status.dekf_steps);
+    if let Some([p, v, base]) = status.dekf_errors.rmse() {
+        println!(
+            "  dEKF against the simulator's truth until the release: position RMSE {p:.3} cm (zero-motion baseline {base:.3} cm), velocity RMSE {v:.3} cm/s"
+        );
+    }
+    if let Some([p, v, _]) = status.marker_errors.rmse() {
+        println!(
+            "  marker KF (/estimate/aruco) against the simulator's truth: position RMSE {p:.3} cm, velocity RMSE {v:.3} cm/s"
+        );
+    }
+    if let Some(reason) = &report.outcome.abort {
+        bail!("the trial was aborted: {reason}; {} keeps what was recorded", report.path.display());
+    }
+    Ok(())
+}
