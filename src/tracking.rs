@@ -1,7 +1,8 @@
 //! The live trackers of `slidetrack track`: the dEKF on every tactile scan
 //! and a causal constant-velocity Kalman filter on the marker, recorded
 //! beside the trial (`/tactile/derivative`, `/estimate/dekf`,
-//! `/estimate/aruco`) and shown in the terminal.
+//! `/estimate/aruco`) and shown in the terminal; on the simulated rig, a
+//! vision tracker on the rendered in-hand RGB-D scene beside them.
 #![allow(non_snake_case)]
 
 use std::sync::{Arc, Mutex};
@@ -18,6 +19,7 @@ use slidetrack_drivers::{Frame, TimeNs};
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
 use slidetrack_estimators::dekf::{DekfModel, DekfTracker};
 use slidetrack_estimators::kf::{CovarianceUpdate, Gaussian, innovation, predict, update};
+use slidetrack_vision::inhand::InHandVision;
 
 use crate::dataset::channel_indices;
 use crate::dekf_run::{CM, estimate_message, estimate_metadata};
@@ -116,6 +118,10 @@ pub struct LiveStatus {
     pub dekf_errors: ErrorSums,
     /// Marker filter errors against the simulator's truth until the release.
     pub marker_errors: ErrorSums,
+    /// Vision tracker `(p, v)` along the sliding axis (cm, cm/s), relative to where the dEKF started.
+    pub vision: Option<[f64; 2]>,
+    /// Vision tracker errors against the simulator's truth until the release.
+    pub vision_errors: ErrorSums,
 }
 
 /// Shortest session time between two redraws of the live line (s).
@@ -130,6 +136,7 @@ pub struct LiveTrackers {
     derivative_ch: ChannelHandle,
     dekf_ch: ChannelHandle,
     marker: Option<(MarkerFilter, ChannelHandle)>,
+    vision: Option<InHandVision>,
     /// Latest simulator truth `(p, v)` (m, m/s) and its position when the dEKF started.
     truth: Option<[f64; 2]>,
     truth_origin: Option<f64>,
@@ -177,6 +184,7 @@ impl LiveTrackers {
             derivative_ch: logger.register::<TactileDerivative>(derivative_meta)?,
             dekf_ch: logger.register::<DekfEstimate>(estimate_meta)?,
             marker,
+            vision: None,
             truth: None,
             truth_origin: None,
             released: false,
@@ -184,6 +192,31 @@ impl LiveTrackers {
             display,
             drawn_at: f64::NEG_INFINITY,
         })
+    }
+
+    /// Also runs a vision tracker on the simulated in-hand RGB-D scene at
+    /// each camera frame (it records its own channels).
+    pub fn with_vision(mut self, vision: InHandVision) -> LiveTrackers {
+        self.vision = Some(vision);
+        self
+    }
+
+    /// The vision tracker's step at a camera frame.
+    fn vision_step(&mut self, frame: &Frame) -> Result<(), ObserverError> {
+        let (Some(vision), Some([p, v])) = (self.vision.as_mut(), self.truth) else { return Ok(()) };
+        let step = vision.on_frame(frame.t, frame.sequence, p, v)?;
+        let (Some(p), Some(v)) = (step.position_m, step.velocity_mps) else { return Ok(()) };
+        let origin = self.truth_origin.unwrap_or(0.0);
+        let estimate = [(p - origin) * CM, v * CM];
+        let truth = self.truth_cm();
+        let released = self.released;
+        self.with_status(|s| {
+            s.vision = Some(estimate);
+            if let (Some(tr), false) = (truth, released) {
+                s.vision_errors.add(estimate, tr);
+            }
+        });
+        Ok(())
     }
 
     /// The simulator's truth relative to where the dEKF started (cm, cm/s).
@@ -206,6 +239,9 @@ impl LiveTrackers {
         let mut line = format!("{:6.1} s  dEKF {}", s.t_s, fmt(s.dekf));
         if self.marker.is_some() {
             line += &format!("  | marker {}", fmt(s.marker));
+        }
+        if self.vision.is_some() {
+            line += &format!("  | vision {}", fmt(s.vision));
         }
         if s.truth.is_some() {
             line += &format!("  | truth {}", fmt(s.truth));
@@ -252,6 +288,7 @@ impl TrialExtension for LiveTrackers {
     }
 
     fn on_frame(&mut self, frame: &Frame, position_on_axis_m: Option<f64>) -> Result<(), ObserverError> {
+        self.vision_step(frame)?;
         let Some((filter, ch)) = self.marker.as_mut() else { return Ok(()) };
         let Some(b) = filter.step(frame.t.as_secs_f64(), position_on_axis_m) else { return Ok(()) };
         let msg = ArucoEstimate(SlidingEstimate {

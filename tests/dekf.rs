@@ -129,15 +129,29 @@ fn track_runs_the_dekf_live_and_replay_reproduces_its_estimates() {
     let (_, model) = trained(dir.path());
     let m = model.to_str().unwrap();
     let live = dir.path().join("live.mcap");
-    let out =
-        ok(&["track", "--model", m, "--duration", "6", "--seed", "31", "--out", live.to_str().unwrap()]);
+    let out = ok(&[
+        "track",
+        "--model",
+        m,
+        "--duration",
+        "6",
+        "--seed",
+        "31",
+        "--vision",
+        "maskukf",
+        "--out",
+        live.to_str().unwrap(),
+    ]);
     assert!(out.contains("dEKF against the simulator's truth"), "{out}");
     assert!(out.contains("marker KF"), "{out}");
+    assert!(out.contains("vision (maskukf)"), "{out}");
 
     let export = |file: &Path, topic: &str| ok(&["export", file.to_str().unwrap(), "--channel", topic]);
     let aruco = numeric_rows(&export(&live, "/estimate/aruco"));
     assert!(aruco.len() > 200, "{} marker estimates in 6 s of cycles at 30 Hz", aruco.len());
     assert!(aruco.iter().flatten().all(|x| x.is_finite()));
+    let vision = export(&live, "/estimate/pose/maskukf");
+    assert!(vision.lines().count() > 200, "{} vision estimates", vision.lines().count());
 
     // The same model on the recorded scans gives the same estimates.
     let replayed = dir.path().join("replayed.mcap");

@@ -126,6 +126,7 @@ pub fn training(dir: &Path, runs: usize, threads: usize, quiet: bool) -> Result<
         lr: 1e-3,
         seed: 1,
         threads,
+        position_shift: super::train::DEFAULT_POSITION_SHIFT_CM,
         truth: TruthSource::Sim,
         plot: None,
         json: false,

@@ -181,6 +181,7 @@ pub fn run(args: &StudyArgs, quiet: bool) -> Result<()> {
             lr: 1e-3,
             seed: args.seed,
             threads: s.threads,
+            position_shift: super::train::DEFAULT_POSITION_SHIFT_CM,
             truth: s.truth,
             plot: None,
             json: false,

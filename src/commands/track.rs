@@ -5,11 +5,13 @@
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_calibration::ground_truth::default_params;
 use slidetrack_drivers::sim::ObjectConfig;
+use slidetrack_vision::TrackerKind;
+use slidetrack_vision::inhand::{InHandVision, InHandVisionConfig};
 
 use crate::cli::RigKind;
 use crate::dekf_run::load_model;
@@ -53,11 +55,44 @@ pub struct TrackArgs {
     /// Replace the session file if it exists.
     #[arg(long)]
     pub overwrite: bool,
+    /// Also run a vision tracker beside the dEKF on the simulated rig's
+    /// in-hand RGB-D scene, fed by an imitation of a slow network (5 fps,
+    /// 200 ms late): `/estimate/pose/<tracker>` and friends.
+    #[arg(long, value_enum)]
+    pub vision: Option<VisionArg>,
+    /// With `--vision`: also record the rendered colour, depth and masks
+    /// (about 1 MB per frame).
+    #[arg(long, requires = "vision")]
+    pub record_rgbd: bool,
+}
+
+/// A vision tracker of `--vision`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum VisionArg {
+    /// MaskUKF (thesis Chapter 4).
+    Maskukf,
+    /// ROFT (thesis Chapter 5).
+    Roft,
+}
+
+impl From<VisionArg> for TrackerKind {
+    fn from(v: VisionArg) -> TrackerKind {
+        match v {
+            VisionArg::Maskukf => TrackerKind::MaskUkf,
+            VisionArg::Roft => TrackerKind::Roft,
+        }
+    }
 }
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     if !(args.duration.is_finite() && args.duration > 0.0) {
         bail!("--duration must be a positive number of seconds, got {}", args.duration);
+    }
+    if args.vision.is_some() && (args.rig == RigKind::Hw || args.no_camera) {
+        bail!(
+            "--vision runs on the simulated rig's rendered RGB-D scene: it needs --rig sim and the camera \
+             (live RGB-D from a real rig needs a segmentation and pose network; see `slidetrack vision track`)"
+        );
     }
     let model = load_model(&args.model)?;
     let object = ObjectConfig::load(&args.object)?;
@@ -104,10 +139,32 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let status = Arc::new(Mutex::new(LiveStatus::default()));
     let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
     let with_marker = setup.tracking.is_some();
+    let vision = match args.vision {
+        Some(kind) => {
+            let g = &rig.geometry;
+            let config = InHandVisionConfig::new(kind.into(), args.seed ^ u64::from(args.trial));
+            Some(
+                InHandVision::new(
+                    &config,
+                    &rig.camera,
+                    &object.geometry,
+                    g.object_start_in_hand_m,
+                    g.sliding_axis_in_hand,
+                )
+                .context("cannot set up the vision tracker")?,
+            )
+        }
+        None => None,
+    };
+    let record_rgbd = args.record_rgbd;
     let (s, d) = (status.clone(), display.clone());
     let extension: ExtensionFactory = Box::new(move |logger| {
         let marker = with_marker.then(default_params);
-        Ok(Box::new(LiveTrackers::new(logger, &model, &model_name, marker, s, d)?) as Box<_>)
+        let mut trackers = LiveTrackers::new(logger, &model, &model_name, marker, s, d)?;
+        if let Some(v) = vision {
+            trackers = trackers.with_vision(v.with_recording(logger.clone(), record_rgbd)?);
+        }
+        Ok(Box::new(trackers) as Box<_>)
     });
     let stop = super::stop_flag();
     let mut progress = |_t: slidetrack_drivers::TimeNs| {};
@@ -125,6 +182,12 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     if let Some([p, v, _]) = status.marker_errors.rmse() {
         println!(
             "  marker KF (/estimate/aruco) against the simulator's truth: position RMSE {p:.3} cm, velocity RMSE {v:.3} cm/s"
+        );
+    }
+    if let (Some(kind), Some([p, v, _])) = (args.vision, status.vision_errors.rmse()) {
+        println!(
+            "  vision ({}) along the sliding axis against the simulator's truth: position RMSE {p:.3} cm, velocity RMSE {v:.3} cm/s",
+            TrackerKind::from(kind).name()
         );
     }
     if let Some(reason) = &report.outcome.abort {

@@ -43,8 +43,12 @@ pub struct Window {
     pub sequence: usize,
     /// First step `t0`; the filter starts there and steps to `t0 + T_s`.
     pub start: usize,
-    /// Initial mean, drawn from `N(x_gt(t0), P0)` (2.148).
+    /// Initial mean, drawn from `N(x_gt(t0), P0)` (2.148), with the window's
+    /// position shift added.
     pub mean0: [f64; 2],
+    /// Added to the ground-truth position of every step of the window (cm):
+    /// the whole window moved along the sliding axis (0: as recorded).
+    pub position_shift: f64,
 }
 
 /// Loss and gradient of a batch (or a shard of it).
@@ -131,7 +135,7 @@ pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], leng
                 .filter(|co| co.mean.iter().chain(co.cov.iter().flatten()).all(|v| v.is_finite()));
             let (m, cv) = co.as_ref().map_or((pr.mean, pr.cov), |co| (co.mean, co.cov));
             let truth = data[w.sequence].truth[t];
-            let e = [m[0] - truth[0], m[1] - truth[1]];
+            let e = [m[0] - truth[0] - w.position_shift, m[1] - truth[1]];
             out.squared_error_pv[0] += e[0] * e[0];
             out.squared_error_pv[1] += e[1] * e[1];
             mean.push(m);
@@ -158,7 +162,7 @@ pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], leng
             let truth = data[w.sequence].truth[t_of(w)];
             let m = step.mean[s];
             // d/dmu of |x_gt - mu|^2.
-            dmean[s][0] += 2.0 * (m[0] - truth[0]);
+            dmean[s][0] += 2.0 * (m[0] - truth[0] - w.position_shift);
             dmean[s][1] += 2.0 * (m[1] - truth[1]);
             let pr = &step.pred[s];
             let cg = match &step.corr[s] {

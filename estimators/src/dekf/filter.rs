@@ -102,8 +102,7 @@ impl DekfTracker {
     /// One dEKF step (prediction over `dt`, correction with `measurement`,
     /// unnormalised, in model channel order). Returns whether it corrected.
     pub fn step(&mut self, measurement: &[f64]) -> bool {
-        let [a, j0, j1] =
-            self.motion.eval(&[self.mean[0] as f32, self.mean[1] as f32, 1.0, 0.0, 0.0, 1.0], 3);
+        let (a, [j0, j1]) = self.motion.value_and_gradient([self.mean[0] as f32, self.mean[1] as f32]);
         let pred =
             predict(self.mean, &self.cov, f64::from(a), [f64::from(j0), f64::from(j1)], self.dt, &self.Q);
         self.mean = pred.mean;
@@ -114,9 +113,9 @@ impl DekfTracker {
         for (c, v) in measurement.iter().enumerate() {
             self.buf[c] = (*v as f32 - self.norm_mean[c]) / self.norm_std[c];
         }
-        let z = f64::from(self.feature.eval(&self.buf, 1)[0]);
+        let z = f64::from(self.feature.value(&self.buf));
         let x = [pred.mean[0] as f32, pred.mean[1] as f32];
-        let [zhat, h0, h1] = self.measurement_net.eval(&[x[0], x[1], 1.0, 0.0, 0.0, 1.0], 3);
+        let (zhat, [h0, h1]) = self.measurement_net.value_and_gradient(x);
         let H = [f64::from(h0), f64::from(h1)];
         let S = H[0] * (pred.cov[0][0] * H[0] + pred.cov[0][1] * H[1])
             + H[1] * (pred.cov[1][0] * H[0] + pred.cov[1][1] * H[1])

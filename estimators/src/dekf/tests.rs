@@ -48,9 +48,9 @@ fn gradients_match_finite_differences_of_the_loss() {
     model.params[o + 2] = 0.05;
     let data = vec![synthetic(40, 1), synthetic(40, 2)];
     let windows = [
-        Window { sequence: 0, start: 3, mean0: [0.1, 0.2] },
-        Window { sequence: 1, start: 10, mean0: [0.3, -0.1] },
-        Window { sequence: 0, start: 20, mean0: [0.9, 0.4] },
+        Window { sequence: 0, start: 3, mean0: [0.1, 0.2], position_shift: 0.0 },
+        Window { sequence: 1, start: 10, mean0: [0.3, -0.1], position_shift: 1.5 },
+        Window { sequence: 0, start: 20, mean0: [0.9, 0.4], position_shift: -0.7 },
     ];
     let length = 4;
     let g = batch_grad(&model, &data, &windows, length);
@@ -112,7 +112,12 @@ fn the_online_filter_follows_the_training_path() {
         seq.truth[t] = tracker.state().0;
     }
     let data = vec![seq];
-    let g = batch_grad(&model, &data, &[Window { sequence: 0, start: 0, mean0: [0.0, 0.0] }], 29);
+    let g = batch_grad(
+        &model,
+        &data,
+        &[Window { sequence: 0, start: 0, mean0: [0.0, 0.0], position_shift: 0.0 }],
+        29,
+    );
     assert!(g.squared_error < 1e-8, "squared error {}", g.squared_error);
 }
 

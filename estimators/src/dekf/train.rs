@@ -1,8 +1,8 @@
 //! End-to-end training (Sec. 2.5.3, 6.2.4): backpropagation through time over
 //! subsequences of increasing length, Adam, loss (2.149).
 
-use rand::SeedableRng;
 use rand::seq::SliceRandom;
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
@@ -37,6 +37,9 @@ pub struct TrainConfig {
     pub seed: u64,
     /// Worker threads (0: as many as the machine has).
     pub threads: usize,
+    /// Half-width of the uniform random shift of each window along the
+    /// sliding axis (cm); 0 trains on the recorded positions only.
+    pub position_shift_cm: f64,
 }
 
 impl Default for TrainConfig {
@@ -49,6 +52,7 @@ impl Default for TrainConfig {
             clip_norm: 10.0,
             seed: 1,
             threads: 0,
+            position_shift_cm: 0.0,
         }
     }
 }
@@ -189,10 +193,16 @@ pub fn train(
                         let truth = data[sequence].truth[start];
                         let n0: f64 = StandardNormal.sample(&mut rng);
                         let n1: f64 = StandardNormal.sample(&mut rng);
+                        let shift = if cfg.position_shift_cm > 0.0 {
+                            rng.random_range(-cfg.position_shift_cm..=cfg.position_shift_cm)
+                        } else {
+                            0.0
+                        };
                         Window {
                             sequence,
                             start,
-                            mean0: [truth[0] + n0 * p0[0].sqrt(), truth[1] + n1 * p0[1].sqrt()],
+                            mean0: [truth[0] + shift + n0 * p0[0].sqrt(), truth[1] + n1 * p0[1].sqrt()],
+                            position_shift: shift,
                         }
                     })
                     .collect();
