@@ -400,9 +400,18 @@ pub struct DemoArgs {
     /// Duration of the sliding cycles of each trial (s).
     #[arg(long, default_value_t = 60.0)]
     pub duration: f64,
-    /// Seed of the simulated rig.
+    /// Seed of the simulated rig and of the training.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Sessions to train on.
+    #[arg(long, default_value_t = 16)]
+    pub train: u32,
+    /// Held-out sessions to evaluate on.
+    #[arg(long, default_value_t = 4)]
+    pub test: u32,
+    /// Worker threads (0: every core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
 }
 
 /// A benchmark of `bench`.

@@ -167,3 +167,61 @@ fn track_runs_the_dekf_live_and_replay_reproduces_its_estimates() {
         }
     }
 }
+
+#[test]
+fn study_quick_writes_the_thesis_tables() {
+    let dir = tempdir();
+    let out = dir.path().join("study");
+    let sessions = dir.path().join("sessions");
+    ok(&[
+        "-q",
+        "study",
+        "--quick",
+        "--collect",
+        "2",
+        "--duration",
+        "8",
+        "--sessions",
+        sessions.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let tables: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("tables.json")).unwrap()).unwrap();
+    for (table, columns) in [("Table 6.1", 8), ("Table 6.2", 12), ("Table 6.3", 8), ("Table 6.4", 8)] {
+        let t = &tables["tables"][table];
+        assert_eq!(t["columns"].as_array().map(Vec::len), Some(columns), "{table}");
+        let rows = t["rows"].as_object().unwrap();
+        let names: Vec<&str> = rows.keys().map(String::as_str).collect();
+        for row in ["bottle", "mustard", "box", "MEAN"] {
+            assert!(names.contains(&row), "{table}: rows {names:?}");
+            for (column, v) in rows[row].as_object().unwrap() {
+                assert!(v.as_f64().is_some_and(f64::is_finite), "{table} {row} {column}: {v}");
+            }
+        }
+    }
+    assert_eq!(tables["models"].as_array().map(Vec::len), Some(13));
+    let md = std::fs::read_to_string(out.join("tables.md")).unwrap();
+    assert!(md.contains("## Table 6.4") && md.contains("| MEAN |"), "{md}");
+}
+
+#[test]
+fn demo_runs_the_whole_pipeline() {
+    let dir = tempdir();
+    let out = ok(&[
+        "-q",
+        "demo",
+        "--train",
+        "2",
+        "--test",
+        "1",
+        "--duration",
+        "8",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(out.contains("of the zero-motion baseline"), "{out}");
+    for f in ["box-xy.safetensors", "eval.json", "replay.png", "training-curve.png", "ground-truth.png"] {
+        assert!(dir.path().join(f).is_file(), "{f} missing:\n{out}");
+    }
+}

@@ -127,6 +127,7 @@ pub fn training(dir: &Path, runs: usize, threads: usize, quiet: bool) -> Result<
         seed: 1,
         threads,
         position_shift: super::train::DEFAULT_POSITION_SHIFT_CM,
+        no_select: false,
         truth: TruthSource::Sim,
         plot: None,
         json: false,

@@ -1,52 +1,120 @@
-//! `slidetrack demo`: a few simulated trials, what they recorded, and plots.
+//! `slidetrack demo`: the whole pipeline on the simulated rig. Collect
+//! controlled-sliding trials of the box (camera included), label them with
+//! the ArUco ground truth, train a dEKF on the `xy` tactile channels, and
+//! evaluate it on held-out sessions: the table of Table 6.1 and the plots
+//! of Figs. 6.4-6.9.
 
-use anyhow::Result;
-use slidetrack_drivers::session::{ReadOptions, SessionInfo};
+use std::time::Instant;
 
-use crate::cli::{CollectArgs, DemoArgs, PlotArgs, PlotKind, RigKind};
+use anyhow::{Result, bail};
+
+use super::eval::{evaluate, table};
+use super::train::{DEFAULT_POSITION_SHIFT_CM, MeasurementArg, TrainArgs, fit, plot_training_curve};
+use crate::cli::{DemoArgs, PlotArgs, PlotKind};
+use crate::dataset::{ChannelSet, TruthSource};
+use crate::dekf_run::save_model;
+use crate::pipeline::{DataSpec, collect, label, threads};
 
 pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
-    println!("slidetrack demo: one controlled-sliding trial per object on the simulated rig\n");
-    for object in ["box", "bottle", "mustard"] {
-        let collect = CollectArgs {
-            rig: RigKind::Sim,
-            object: object.into(),
-            trials: 1,
-            first_trial: 0,
-            duration: args.duration,
-            seed: args.seed,
-            out: args.out.join("sessions"),
-            config: None,
-            no_camera: false,
-            realtime: false,
-            overwrite: true,
-        };
-        let reports = super::collect::collect(&collect, quiet)?;
-        for report in &reports {
-            let info = SessionInfo::read(&report.path, ReadOptions::default())?;
-            println!(
-                "  recorded {:.1} MB in {:.1} s of wall time ({:.0}x real time): {}",
-                info.file_size_bytes as f64 / 1e6,
-                report.wall_s,
-                report.outcome.end.as_secs_f64() / report.wall_s.max(1e-9),
-                info.channels
-                    .iter()
-                    .map(|c| format!("{} {}", c.topic, c.message_count))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-            let stem =
-                report.path.file_stem().map_or_else(|| object.into(), |s| s.to_string_lossy().into_owned());
-            for (kind, suffix) in [(PlotKind::Overview, "overview"), (PlotKind::Grasp, "grasp")] {
-                let out = args.out.join(format!("{stem}-{suffix}.png"));
-                super::plot::run(&PlotArgs { file: report.path.clone(), out, what: kind, recover: false })?;
-            }
-        }
-        println!();
+    if args.train == 0 || args.test == 0 {
+        bail!("--train and --test must each be at least 1");
     }
-    println!("sessions and plots are in {}", args.out.display());
+    let started = Instant::now();
+    let workers = threads(args.threads);
+    let stop = super::stop_flag();
+    let sessions = args.out.join("sessions");
+    let n = args.train + args.test;
     println!(
-        "next: `slidetrack info FILE`, `slidetrack export FILE --channel /tactile/raw`, or open a .mcap in Foxglove"
+        "slidetrack demo: {n} controlled-sliding trials of the box on the simulated rig ({} s of cycles each, {workers} at a time)",
+        args.duration
+    );
+    let spec = DataSpec {
+        object: "box".into(),
+        seed: args.seed,
+        trials: 0..n,
+        duration_s: args.duration,
+        camera: true,
+    };
+    let files = collect(&spec, &sessions, workers, &stop, &|path, report| match report {
+        Some(r) => println!("  {}", r.summary_line()),
+        None => println!("  {}: kept from an earlier run", path.display()),
+    })?;
+    let step = |what: &str| println!("\n[{:5.1} s] {what}", started.elapsed().as_secs_f64());
+
+    step("labelling: marker positions -> Kalman filter + RTS smoother -> /ground_truth/sliding");
+    label(&files, workers, &stop)?;
+    let (train, test) = files.split_at(args.train as usize);
+
+    step(&format!("training the dEKF on {} sessions (xy channels, tactile derivative)", train.len()));
+    let model_path = args.out.join("box-xy.safetensors");
+    let trained = fit(
+        &TrainArgs {
+            sessions: train.to_vec(),
+            channels: ChannelSet::Xy,
+            measurement: MeasurementArg::Derivative,
+            out: model_path.clone(),
+            rate_hz: 30.0,
+            schedule: "2:5,4:5,8:5,16:5,32:5".into(),
+            batch: 32,
+            lr: 1e-3,
+            seed: args.seed,
+            threads: workers,
+            position_shift: DEFAULT_POSITION_SHIFT_CM,
+            no_select: false,
+            truth: TruthSource::GroundTruth,
+            plot: None,
+            json: false,
+        },
+        quiet,
+    )?;
+    save_model(&trained.model, &model_path)?;
+    println!("  {} ({:.1} s of training)", model_path.display(), trained.seconds);
+    plot_training_curve(&trained.epochs, &args.out.join("training-curve.png"))?;
+
+    step(&format!("evaluating on {} held-out sessions", test.len()));
+    let report = evaluate(&trained.model, test, TruthSource::GroundTruth)?;
+    print!("{}", table(&report));
+    let ratio = report.mean.position_rmse_cm / report.mean.baseline_position_rmse_cm.max(1e-12);
+    println!(
+        "position RMSE {:.3} cm = {:.0} % of the zero-motion baseline's {:.3} cm",
+        report.mean.position_rmse_cm,
+        ratio * 100.0,
+        report.mean.baseline_position_rmse_cm
+    );
+    crate::dekf_run::write_atomically(
+        &args.out.join("eval.json"),
+        serde_json::to_string_pretty(&report)?.as_bytes(),
+    )?;
+
+    step("plots");
+    let first_test = &test[0];
+    let replayed = args.out.join("replay.mcap");
+    super::replay::run_cmd(&super::replay::ReplayArgs {
+        file: first_test.clone(),
+        model: model_path,
+        out: replayed,
+        plot: Some(args.out.join("replay.png")),
+        overwrite: true,
+    })?;
+    for (kind, name) in [
+        (PlotKind::Overview, "overview.png"),
+        (PlotKind::Grasp, "grasp.png"),
+        (PlotKind::GroundTruth, "ground-truth.png"),
+    ] {
+        let out = args.out.join(name);
+        super::plot::run(&PlotArgs {
+            file: first_test.clone(),
+            out: out.clone(),
+            what: kind,
+            recover: false,
+        })?;
+        println!("{}", out.display());
+    }
+    println!("{}", args.out.join("training-curve.png").display());
+    println!("\ndone in {:.0} s; everything is in {}", started.elapsed().as_secs_f64(), args.out.display());
+    println!(
+        "next: `slidetrack track --model {} --vision roft` runs the trackers live; `slidetrack study --quick` the thesis's tables",
+        args.out.join("box-xy.safetensors").display()
     );
     Ok(())
 }

@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rand::SeedableRng;
 use serde_json::json;
 use slidetrack_estimators::dekf::{
-    DekfModel, EpochReport, Measurement, ModelMeta, Stage, TrainConfig, train,
+    DekfModel, EpochReport, Measurement, ModelMeta, Stage, TrainConfig, train_with_selection,
 };
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
 
@@ -70,6 +70,11 @@ pub struct TrainArgs {
     /// positions, as the thesis did.
     #[arg(long, default_value_t = DEFAULT_POSITION_SHIFT_CM)]
     pub position_shift: f64,
+    /// Keep the parameters of the last epoch instead of those of the epoch
+    /// whose filter, run over whole training sessions, tracked the position best
+    /// (checked after each epoch of the second half of the schedule).
+    #[arg(long)]
+    pub no_select: bool,
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
@@ -88,6 +93,9 @@ pub struct TrainArgs {
 /// sessions (held-out box sessions: 35 % of the zero-motion baseline's RMSE
 /// instead of 16 %).
 pub const DEFAULT_POSITION_SHIFT_CM: f64 = 20.0;
+
+/// Training sessions the epoch selection runs whole.
+const SELECTION_SESSIONS: usize = 8;
 
 /// Parses `2:5,4:5` into stages.
 pub fn parse_schedule(s: &str) -> Result<Vec<Stage>> {
@@ -201,19 +209,35 @@ pub fn fit_sessions(args: &TrainArgs, sessions: &[SessionData], quiet: bool) -> 
         .progress_chars("=> "),
     );
     let started = std::time::Instant::now();
-    let epochs = train(&mut model, &data, &cfg, &mut |p| {
-        bar.set_length(p.overall.1 as u64);
-        bar.set_position(p.overall.0 as u64);
-        if p.batch.0 == p.batch.1 || p.overall.0 % 10 == 0 {
-            bar.set_message(format!(
-                "length {} epoch {}: RMSE {:.3} cm, {:.3} cm/s",
-                p.length,
-                p.epoch + 1,
-                p.rmse[0],
-                p.rmse[1]
-            ));
-        }
-    });
+    // Up to 8 training sessions, evenly spaced, run whole from their start.
+    let stride = sessions.len().div_ceil(SELECTION_SESSIONS).max(1);
+    let chosen: Vec<&SessionData> = sessions.iter().step_by(stride).collect();
+    let mut score = |m: &DekfModel| -> f64 {
+        let rmse: Result<Vec<f64>> =
+            chosen.iter().map(|d| Ok(super::eval::score_session(m, d)?.position_rmse_cm)).collect();
+        rmse.map_or(f64::NAN, |v| v.iter().sum::<f64>() / v.len().max(1) as f64)
+    };
+    let select: Option<(usize, &mut dyn FnMut(&DekfModel) -> f64)> = (!args.no_select)
+        .then_some((cfg.schedule.len() / 2, &mut score as &mut dyn FnMut(&DekfModel) -> f64));
+    let epochs = train_with_selection(
+        &mut model,
+        &data,
+        &cfg,
+        &mut |p| {
+            bar.set_length(p.overall.1 as u64);
+            bar.set_position(p.overall.0 as u64);
+            if p.batch.0 == p.batch.1 || p.overall.0 % 10 == 0 {
+                bar.set_message(format!(
+                    "length {} epoch {}: RMSE {:.3} cm, {:.3} cm/s",
+                    p.length,
+                    p.epoch + 1,
+                    p.rmse[0],
+                    p.rmse[1]
+                ));
+            }
+        },
+        select,
+    );
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
     if let Some(training) = model.meta.training.as_object_mut() {
@@ -251,6 +275,16 @@ pub fn run(args: &TrainArgs, quiet: bool) -> Result<()> {
             last.map_or(f64::NAN, |e| e.rmse[0]),
             last.map_or(f64::NAN, |e| e.rmse[1]),
         );
+        let best = trained
+            .epochs
+            .iter()
+            .filter_map(|e| e.selection_score.map(|s| (e.epoch, s)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((epoch, score)) = best {
+            println!(
+                "  kept epoch {epoch}: position RMSE {score:.3} cm over whole training sessions (--no-select keeps the last)"
+            );
+        }
     }
     Ok(())
 }

@@ -87,6 +87,10 @@ pub struct EpochReport {
     pub rmse: [f64; 2],
     /// Batches skipped because their loss or gradient was not finite.
     pub skipped_batches: usize,
+    /// The selection score after the epoch (see [`train_with_selection`]),
+    /// when there was one.
+    #[serde(default)]
+    pub selection_score: Option<f64>,
 }
 
 /// Adam with bias correction on the trainable elements.
@@ -167,6 +171,22 @@ pub fn train(
     cfg: &TrainConfig,
     progress: &mut dyn FnMut(&Progress),
 ) -> Vec<EpochReport> {
+    train_with_selection(model, data, cfg, progress, None)
+}
+
+/// [`train`], scoring the model with `select` after every epoch of the
+/// stages `select_from..` (lower is better; a non-finite score never wins)
+/// and ending with the parameters of the best-scoring epoch. The windowed
+/// loss cannot see what happens over a whole session; a score on whole
+/// sessions (the position RMSE of the filter run from their start) can.
+pub fn train_with_selection(
+    model: &mut DekfModel,
+    data: &[Sequence],
+    cfg: &TrainConfig,
+    progress: &mut dyn FnMut(&Progress),
+    mut select: Option<(usize, &mut dyn FnMut(&DekfModel) -> f64)>,
+) -> Vec<EpochReport> {
+    let mut best: Option<(f64, Vec<f32>)> = None;
     let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let mask = model.layout.trainable_mask();
@@ -239,8 +259,23 @@ pub fn train(
                 loss: (sq[0] + sq[1]) / (2.0 * n),
                 rmse: [(sq[0] / n).sqrt(), (sq[1] / n).sqrt()],
                 skipped_batches: skipped,
+                selection_score: None,
             });
+            if let Some((from, score)) = select.as_mut()
+                && stage >= *from
+            {
+                let s = score(model);
+                if let Some(r) = reports.last_mut() {
+                    r.selection_score = Some(s);
+                }
+                if s.is_finite() && best.as_ref().is_none_or(|(b, _)| s < *b) {
+                    best = Some((s, model.params.clone()));
+                }
+            }
         }
+    }
+    if let Some((_, params)) = best {
+        model.params = params;
     }
     reports
 }
