@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rand::SeedableRng;
 use serde_json::json;
 use slidetrack_estimators::dekf::{
-    DekfModel, EpochReport, Measurement, ModelMeta, Stage, TrainConfig, train_with_selection,
+    DekfModel, EpochReport, Measurement, ModelMeta, Selection, Stage, TrainConfig, train_with_selection,
 };
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
 
@@ -217,7 +217,7 @@ pub fn fit_sessions(args: &TrainArgs, sessions: &[SessionData], quiet: bool) -> 
             chosen.iter().map(|d| Ok(super::eval::score_session(m, d)?.position_rmse_cm)).collect();
         rmse.map_or(f64::NAN, |v| v.iter().sum::<f64>() / v.len().max(1) as f64)
     };
-    let select: Option<(usize, &mut dyn FnMut(&DekfModel) -> f64)> = (!args.no_select)
+    let select: Option<Selection> = (!args.no_select)
         .then_some((cfg.schedule.len() / 2, &mut score as &mut dyn FnMut(&DekfModel) -> f64));
     let epochs = train_with_selection(
         &mut model,

@@ -51,6 +51,14 @@ impl Wide {
             *g = dot(c, gy);
         }
     }
+
+    /// `g_x = W^T g_y` where the input `x` (a ReLU's output) is positive, 0
+    /// elsewhere: what the ReLU would zero is not computed.
+    fn backward_relu(&self, gy: &Vector, x: &Vector, gx: &mut Vector) {
+        for ((g, c), xi) in gx.iter_mut().zip(&self.columns).zip(x) {
+            *g = if *xi > 0.0 { dot(c, gy) } else { 0.0 };
+        }
+    }
 }
 
 fn dot(a: &Vector, b: &Vector) -> f32 {
@@ -122,12 +130,12 @@ impl FastNet {
         let [h0, a1, h1, _, a3, h3, a4, h4, a5, h5] = &self.acts;
         let w = &self.wide;
         let mut g = self.out_weight;
-        residual_back(&w[8], &w[9], &mut g, a5, h5);
-        residual_back(&w[6], &w[7], &mut g, a4, h4);
-        residual_back(&w[4], &w[5], &mut g, a3, h3);
+        residual_back(&w[8], &w[9], &mut g, a5, h5, Some(h4));
+        residual_back(&w[6], &w[7], &mut g, a4, h4, Some(h3));
+        residual_back(&w[4], &w[5], &mut g, a3, h3, None);
         let mut g1 = [0.0; HIDDEN];
-        w[3].backward(&g, &mut g1);
-        residual_back(&w[1], &w[2], &mut g1, a1, h1);
+        w[3].backward_relu(&g, h1, &mut g1);
+        residual_back(&w[1], &w[2], &mut g1, a1, h1, Some(h0));
         relu_back(&mut g1, h0);
         let mut gx = [0.0; 2];
         w[0].backward(&g1, &mut gx);
@@ -147,14 +155,25 @@ fn residual(first: &Wide, second: &Wide, h: &Vector, a: &mut Vector, s: &mut Vec
 }
 
 /// Reverse pass through a residual block whose activations were `a` and
-/// `s`: `g` holds the gradient at `s` on entry and at `h` on return.
-fn residual_back(first: &Wide, second: &Wide, g: &mut Vector, a: &Vector, s: &Vector) {
+/// `s`: `g` holds the gradient at `s` on entry and at the block's input `h`
+/// on return. When `h` is itself a ReLU's output (`relu_input`), the caller
+/// zeroes the gradient where it is not positive, so it is not computed there.
+fn residual_back(
+    first: &Wide,
+    second: &Wide,
+    g: &mut Vector,
+    a: &Vector,
+    s: &Vector,
+    relu_input: Option<&Vector>,
+) {
     relu_back(g, s);
     let mut ga = [0.0; HIDDEN];
-    second.backward(g, &mut ga);
-    relu_back(&mut ga, a);
+    second.backward_relu(g, a, &mut ga);
     let mut gh = [0.0; HIDDEN];
-    first.backward(&ga, &mut gh);
+    match relu_input {
+        Some(h) => first.backward_relu(&ga, h, &mut gh),
+        None => first.backward(&ga, &mut gh),
+    }
     for (gi, x) in g.iter_mut().zip(&gh) {
         *gi += x;
     }

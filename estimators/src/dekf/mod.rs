@@ -15,7 +15,7 @@ mod train;
 pub use bptt::{BatchGrad, Sequence, Window, batch_grad};
 pub use filter::{DekfOutput, DekfTracker, MIN_INNOVATION_VAR};
 pub use model::{DekfModel, Measurement, ModelMeta};
-pub use train::{EpochReport, Progress, Stage, TrainConfig, train, train_with_selection};
+pub use train::{EpochReport, Progress, Selection, Stage, TrainConfig, train, train_with_selection};
 
 #[cfg(test)]
 mod tests;

@@ -174,6 +174,10 @@ pub fn train(
     train_with_selection(model, data, cfg, progress, None)
 }
 
+/// Epoch selection of [`train_with_selection`]: the first stage whose epochs
+/// are scored, and the score (lower is better).
+pub type Selection<'a> = (usize, &'a mut dyn FnMut(&DekfModel) -> f64);
+
 /// [`train`], scoring the model with `select` after every epoch of the
 /// stages `select_from..` (lower is better; a non-finite score never wins)
 /// and ending with the parameters of the best-scoring epoch. The windowed
@@ -184,7 +188,7 @@ pub fn train_with_selection(
     data: &[Sequence],
     cfg: &TrainConfig,
     progress: &mut dyn FnMut(&Progress),
-    mut select: Option<(usize, &mut dyn FnMut(&DekfModel) -> f64)>,
+    mut select: Option<Selection>,
 ) -> Vec<EpochReport> {
     let mut best: Option<(f64, Vec<f32>)> = None;
     let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
