@@ -108,11 +108,12 @@ pub fn collect(
             overwrite: true,
             path: partial.clone(),
         };
-        let report = run_sim_trial(&t, stop, &mut |_| {})?;
+        let mut report = run_sim_trial(&t, stop, &mut |_| {})?;
         if let Some(reason) = &report.outcome.abort {
             anyhow::bail!("{}: trial aborted: {reason}", path.display());
         }
         std::fs::rename(&partial, &path).with_context(|| format!("cannot write {}", path.display()))?;
+        report.path.clone_from(&path);
         done(&path, Some(&report));
         Ok(path)
     })

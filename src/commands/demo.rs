@@ -102,13 +102,7 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
         (PlotKind::GroundTruth, "ground-truth.png"),
     ] {
         let out = args.out.join(name);
-        super::plot::run(&PlotArgs {
-            file: first_test.clone(),
-            out: out.clone(),
-            what: kind,
-            recover: false,
-        })?;
-        println!("{}", out.display());
+        super::plot::run(&PlotArgs { file: first_test.clone(), out, what: kind, recover: false })?;
     }
     println!("{}", args.out.join("training-curve.png").display());
     println!("\ndone in {:.0} s; everything is in {}", started.elapsed().as_secs_f64(), args.out.display());
