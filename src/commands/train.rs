@@ -294,12 +294,14 @@ pub fn plot_training_curve(epochs: &[EpochReport], out: &Path) -> Result<()> {
     use crate::plot::{PALETTE, Panel, Series, draw_stacked_x};
     let pos: Vec<(f64, f64)> = epochs.iter().map(|e| (e.epoch as f64, e.rmse[0])).collect();
     let vel: Vec<(f64, f64)> = epochs.iter().map(|e| (e.epoch as f64, e.rmse[1])).collect();
+    let whole: Vec<(f64, f64)> =
+        epochs.iter().filter_map(|e| e.selection_score.map(|s| (e.epoch as f64, s))).collect();
+    let mut position = vec![Series::line("training windows", PALETTE[0], pos)];
+    if !whole.is_empty() {
+        position.push(Series::line("whole training sessions (epoch selection)", PALETTE[3], whole));
+    }
     let panels = [
-        Panel {
-            title: "position RMSE on the training data".into(),
-            y_label: "cm".into(),
-            series: vec![Series::line("position", PALETTE[0], pos)],
-        },
+        Panel { title: "position RMSE on the training data".into(), y_label: "cm".into(), series: position },
         Panel {
             title: "velocity RMSE on the training data".into(),
             y_label: "cm/s".into(),
