@@ -5,7 +5,6 @@
 
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
 use slidetrack_calibration::camera_info::read_camera_info;
@@ -18,23 +17,10 @@ use slidetrack_drivers::hw::{CanHand, CanTactile, EmulatedSerialTactile, SerialT
 use slidetrack_drivers::sim::camera::SimCameraRenderer;
 use slidetrack_drivers::sim::{SimCamera, SimDevices, Stream, TruthSource, stream_seed};
 use slidetrack_drivers::{
-    Camera, CameraIntrinsics, Clock, HandActuator, TactileSource, TimeNs, WallClock, parse_toml,
+    Camera, CameraIntrinsics, Clock, HandActuator, TactileSource, WallClock, parse_toml,
 };
 
-use crate::trial::{RigSetup, TrialReport, TrialSpec, marker_tracking, record_trial};
-
-/// Runs one trial on the real rig of `spec.rig.hw` and records it to `spec.path`.
-pub fn run_hw_trial(
-    spec: &TrialSpec,
-    stop: &AtomicBool,
-    progress: &mut dyn FnMut(TimeNs),
-) -> Result<TrialReport> {
-    if spec.path.exists() && !spec.overwrite {
-        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
-    }
-    let setup = build_hw_rig(spec)?;
-    record_trial(setup, spec, stop, progress)
-}
+use crate::trial::{RigSetup, TrialSpec, marker_tracking};
 
 /// A one-line description of the devices, for the log.
 pub fn describe(hw: &HwRigConfig) -> String {

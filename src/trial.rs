@@ -15,6 +15,7 @@ use slidetrack_drivers::{
     Camera, CameraIntrinsics, Clock, SimClock, TactileInfo, TactileSource, TimeNs, WallClock,
 };
 
+use crate::cli::RigKind;
 use crate::observer::{MarkerTracking, SessionObserver, TrialExtension, TrialStats};
 use crate::rig_config::RigConfig;
 
@@ -173,17 +174,25 @@ pub fn marker_tracking(
     })
 }
 
+/// The rig of `spec`, simulated or real, once it is clear that its session
+/// file may be written.
+pub fn build_rig(kind: RigKind, spec: &TrialSpec) -> Result<RigSetup> {
+    if spec.path.exists() && !spec.overwrite {
+        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
+    }
+    match kind {
+        RigKind::Sim => build_sim_rig(spec),
+        RigKind::Hw => crate::hw_rig::build_hw_rig(spec),
+    }
+}
+
 /// Runs one trial of the simulated rig and records it to `spec.path`.
 pub fn run_sim_trial(
     spec: &TrialSpec,
     stop: &AtomicBool,
     progress: &mut dyn FnMut(TimeNs),
 ) -> Result<TrialReport> {
-    if spec.path.exists() && !spec.overwrite {
-        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
-    }
-    let setup = build_sim_rig(spec)?;
-    record_trial(setup, spec, stop, progress)
+    record_trial(build_rig(RigKind::Sim, spec)?, spec, stop, progress)
 }
 
 /// Runs the controlled-sliding protocol on a rig and records everything to

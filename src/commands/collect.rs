@@ -7,9 +7,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_control::AbortReason;
 use slidetrack_drivers::sim::ObjectConfig;
 
-use crate::cli::{CollectArgs, RigKind};
+use crate::cli::CollectArgs;
 use crate::rig_config::RigConfig;
-use crate::trial::{TrialReport, TrialSpec, prepare_out_dir, run_sim_trial, session_file_name};
+use crate::trial::{TrialReport, TrialSpec, build_rig, prepare_out_dir, record_trial, session_file_name};
 
 /// Expected length of a trial beyond its cycles: zeroing, closing, ramp,
 /// settle and release (s), for the progress bar.
@@ -63,10 +63,7 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
         let mut progress = |t: slidetrack_drivers::TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
         };
-        let report = match args.rig {
-            RigKind::Sim => run_sim_trial(&spec, &stop, &mut progress)?,
-            RigKind::Hw => crate::hw_rig::run_hw_trial(&spec, &stop, &mut progress)?,
-        };
+        let report = record_trial(build_rig(args.rig, &spec)?, &spec, &stop, &mut progress)?;
         bar.suspend(|| println!("{}", report.summary_line()));
         if let Some(counters) = report.stats.decoder {
             bar.suspend(|| println!("  tactile decoder: {counters}"));

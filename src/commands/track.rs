@@ -17,7 +17,7 @@ use crate::cli::RigKind;
 use crate::dekf_run::load_model;
 use crate::rig_config::RigConfig;
 use crate::tracking::{LiveStatus, LiveTrackers};
-use crate::trial::{ExtensionFactory, TrialSpec, build_sim_rig, prepare_out_dir, record_trial_with};
+use crate::trial::{ExtensionFactory, TrialSpec, build_rig, prepare_out_dir, record_trial_with};
 
 /// Arguments of `track`.
 #[derive(Debug, Args, Clone)]
@@ -115,13 +115,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         overwrite: args.overwrite,
         path,
     };
-    if spec.path.exists() && !spec.overwrite {
-        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
-    }
-    let setup = match args.rig {
-        RigKind::Sim => build_sim_rig(&spec)?,
-        RigKind::Hw => crate::hw_rig::build_hw_rig(&spec)?,
-    };
+    let setup = build_rig(args.rig, &spec)?;
     let rate = setup.tactile_info.rate_hz;
     let expected = model.meta.tactile_rate_hz;
     if (rate - expected).abs() > 0.05 * expected {
