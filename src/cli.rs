@@ -110,30 +110,21 @@ pub enum RigKind {
     Hw,
 }
 
-/// Arguments of `collect`.
-#[derive(Debug, Args)]
-pub struct CollectArgs {
+/// The experiment to run: rig, object, duration and how (`collect`, `track`).
+#[derive(Debug, Args, Clone)]
+pub struct ExperimentArgs {
     /// The rig to run on.
     #[arg(long, value_enum, default_value_t = RigKind::Sim)]
     pub rig: RigKind,
     /// Object: a built-in name (box, bottle, mustard) or a path to an object .toml.
     #[arg(long, default_value = "box")]
     pub object: String,
-    /// Number of trials, one session file each.
-    #[arg(long, default_value_t = 1)]
-    pub trials: u32,
-    /// Index of the first trial (trials are numbered from it).
-    #[arg(long, default_value_t = 0)]
-    pub first_trial: u32,
     /// Duration of the sliding cycles of each trial (s).
     #[arg(long, default_value_t = 60.0)]
     pub duration: f64,
     /// Seed of the simulated rig; the same seed gives the same data.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Directory for the session files (created if missing).
-    #[arg(long, default_value = "sessions")]
-    pub out: PathBuf,
     /// Rig configuration (TOML); the built-in simulated rig when absent.
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -146,6 +137,23 @@ pub struct CollectArgs {
     /// Replace session files that already exist (refused otherwise).
     #[arg(long)]
     pub overwrite: bool,
+}
+
+/// Arguments of `collect`.
+#[derive(Debug, Args)]
+pub struct CollectArgs {
+    /// The experiment.
+    #[command(flatten)]
+    pub run: ExperimentArgs,
+    /// Number of trials, one session file each.
+    #[arg(long, default_value_t = 1)]
+    pub trials: u32,
+    /// Index of the first trial (trials are numbered from it).
+    #[arg(long, default_value_t = 0)]
+    pub first_trial: u32,
+    /// Directory for the session files (created if missing).
+    #[arg(long, default_value = "sessions")]
+    pub out: PathBuf,
 }
 
 /// Arguments of `info`.
@@ -470,11 +478,11 @@ mod tests {
         .unwrap();
         let Command::Collect(a) = cli.command else { panic!("not collect") };
         assert_eq!(
-            (a.rig, a.object.as_str(), a.trials, a.duration, a.seed),
+            (a.run.rig, a.run.object.as_str(), a.trials, a.run.duration, a.run.seed),
             (RigKind::Sim, "box", 10, 60.0, 1)
         );
         assert_eq!(a.out, PathBuf::from("DIR"));
-        assert!(!a.no_camera);
+        assert!(!a.run.no_camera);
     }
 
     #[test]

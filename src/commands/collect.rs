@@ -25,18 +25,18 @@ pub fn run(args: &CollectArgs, quiet: bool) -> Result<()> {
 
 /// Runs the trials of `args`, printing one line per trial; returns their reports.
 pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
-    if !(args.duration.is_finite() && args.duration > 0.0) {
-        bail!("--duration must be a positive number of seconds, got {}", args.duration);
+    if !(args.run.duration.is_finite() && args.run.duration > 0.0) {
+        bail!("--duration must be a positive number of seconds, got {}", args.run.duration);
     }
     if args.trials == 0 {
         bail!("--trials must be at least 1");
     }
-    let object = ObjectConfig::load(&args.object)?;
-    let rig = RigConfig::load(args.config.as_deref())?;
+    let object = ObjectConfig::load(&args.run.object)?;
+    let rig = RigConfig::load(args.run.config.as_deref())?;
     prepare_out_dir(&args.out)?;
     let stop = super::stop_flag();
 
-    let per_trial_ms = ((args.duration + SETUP_S) * 1e3) as u64;
+    let per_trial_ms = ((args.run.duration + SETUP_S) * 1e3) as u64;
     let bar =
         if quiet { ProgressBar::hidden() } else { ProgressBar::new(per_trial_ms * u64::from(args.trials)) };
     bar.set_style(
@@ -46,24 +46,24 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
     );
     let mut reports = Vec::new();
     for (k, trial) in (args.first_trial..args.first_trial + args.trials).enumerate() {
-        let path = args.out.join(session_file_name(&object.name, args.seed, trial));
+        let path = args.out.join(session_file_name(&object.name, args.run.seed, trial));
         bar.set_message(format!("{} trial {}/{}", object.name, k + 1, args.trials));
         let offset_ms = per_trial_ms * k as u64;
         let spec = TrialSpec {
             rig: &rig,
             object: &object,
-            seed: args.seed,
+            seed: args.run.seed,
             trial,
-            duration_s: args.duration,
-            camera: !args.no_camera,
-            realtime: args.realtime,
-            overwrite: args.overwrite,
+            duration_s: args.run.duration,
+            camera: !args.run.no_camera,
+            realtime: args.run.realtime,
+            overwrite: args.run.overwrite,
             path,
         };
         let mut progress = |t: slidetrack_drivers::TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
         };
-        let report = record_trial(build_rig(args.rig, &spec)?, &spec, &stop, &mut progress)?;
+        let report = record_trial(build_rig(args.run.rig, &spec)?, &spec, &stop, &mut progress)?;
         bar.suspend(|| println!("{}", report.summary_line()));
         if let Some(counters) = report.stats.decoder {
             bar.suspend(|| println!("  tactile decoder: {counters}"));

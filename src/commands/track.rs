@@ -13,7 +13,7 @@ use slidetrack_drivers::sim::ObjectConfig;
 use slidetrack_vision::TrackerKind;
 use slidetrack_vision::inhand::{InHandVision, InHandVisionConfig};
 
-use crate::cli::RigKind;
+use crate::cli::{ExperimentArgs, RigKind};
 use crate::dekf_run::load_model;
 use crate::rig_config::RigConfig;
 use crate::tracking::{LiveStatus, LiveTrackers};
@@ -22,39 +22,18 @@ use crate::trial::{ExtensionFactory, TrialSpec, build_rig, prepare_out_dir, reco
 /// Arguments of `track`.
 #[derive(Debug, Args, Clone)]
 pub struct TrackArgs {
-    /// The rig to run on.
-    #[arg(long, value_enum, default_value_t = RigKind::Sim)]
-    pub rig: RigKind,
-    /// Object: a built-in name (box, bottle, mustard) or a path to an object .toml.
-    #[arg(long, default_value = "box")]
-    pub object: String,
+    /// The experiment.
+    #[command(flatten)]
+    pub run: ExperimentArgs,
     /// dEKF model file (.safetensors) from `slidetrack train`.
     #[arg(long)]
     pub model: PathBuf,
-    /// Duration of the sliding cycles (s).
-    #[arg(long, default_value_t = 60.0)]
-    pub duration: f64,
-    /// Seed of the simulated rig.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
     /// Trial number (the simulated rig's per-trial jitter derives from it).
     #[arg(long, default_value_t = 0)]
     pub trial: u32,
     /// Session file to write (default: sessions/<object>-s<seed>-t<trial>-track.mcap).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Rig configuration (TOML); the built-in simulated rig when absent.
-    #[arg(long)]
-    pub config: Option<PathBuf>,
-    /// No camera: the dEKF alone (no marker filter).
-    #[arg(long)]
-    pub no_camera: bool,
-    /// Run the simulated rig in wall-clock time (as the real rig does).
-    #[arg(long)]
-    pub realtime: bool,
-    /// Replace the session file if it exists.
-    #[arg(long)]
-    pub overwrite: bool,
     /// Also run a vision tracker beside the dEKF on the simulated rig's
     /// in-hand RGB-D scene, fed by an imitation of a slow network (5 fps,
     /// 200 ms late): `/estimate/pose/<tracker>` and friends.
@@ -85,21 +64,21 @@ impl From<VisionArg> for TrackerKind {
 }
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
-    if !(args.duration.is_finite() && args.duration > 0.0) {
-        bail!("--duration must be a positive number of seconds, got {}", args.duration);
+    if !(args.run.duration.is_finite() && args.run.duration > 0.0) {
+        bail!("--duration must be a positive number of seconds, got {}", args.run.duration);
     }
-    if args.vision.is_some() && (args.rig == RigKind::Hw || args.no_camera) {
+    if args.vision.is_some() && (args.run.rig == RigKind::Hw || args.run.no_camera) {
         bail!(
             "--vision runs on the simulated rig's rendered RGB-D scene: it needs --rig sim and the camera \
              (live RGB-D from a real rig needs a segmentation and pose network; see `slidetrack vision track`)"
         );
     }
     let model = load_model(&args.model)?;
-    let object = ObjectConfig::load(&args.object)?;
-    let rig = RigConfig::load(args.config.as_deref())?;
+    let object = ObjectConfig::load(&args.run.object)?;
+    let rig = RigConfig::load(args.run.config.as_deref())?;
     let path = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("sessions")
-            .join(format!("{}-s{}-t{:03}-track.mcap", object.name, args.seed, args.trial))
+            .join(format!("{}-s{}-t{:03}-track.mcap", object.name, args.run.seed, args.trial))
     });
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         prepare_out_dir(dir)?;
@@ -107,15 +86,15 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let spec = TrialSpec {
         rig: &rig,
         object: &object,
-        seed: args.seed,
+        seed: args.run.seed,
         trial: args.trial,
-        duration_s: args.duration,
-        camera: !args.no_camera,
-        realtime: args.realtime,
-        overwrite: args.overwrite,
+        duration_s: args.run.duration,
+        camera: !args.run.no_camera,
+        realtime: args.run.realtime,
+        overwrite: args.run.overwrite,
         path,
     };
-    let setup = build_rig(args.rig, &spec)?;
+    let setup = build_rig(args.run.rig, &spec)?;
     let rate = setup.tactile_info.rate_hz;
     let expected = model.meta.tactile_rate_hz;
     if (rate - expected).abs() > 0.05 * expected {
@@ -136,7 +115,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let vision = match args.vision {
         Some(kind) => {
             let g = &rig.geometry;
-            let config = InHandVisionConfig::new(kind.into(), args.seed ^ u64::from(args.trial));
+            let config = InHandVisionConfig::new(kind.into(), args.run.seed ^ u64::from(args.trial));
             Some(
                 InHandVision::new(
                     &config,
