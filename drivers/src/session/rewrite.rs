@@ -22,7 +22,9 @@ use serde::Serialize;
 use super::error::SessionError;
 use super::messages::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
 use super::reader::ReadOptions;
-use super::scan::{RECORD_LENGTH_LIMIT, footer_summary_start, open_session, read_full, truncated_error};
+use super::scan::{
+    RECORD_LENGTH_LIMIT, chunk_reader, footer_summary_start, open_session, read_full, truncated_error,
+};
 use crate::TimeNs;
 
 /// The most bytes read from the file at once.
@@ -445,17 +447,7 @@ impl Items {
 
     /// Decompresses a chunk (checking its CRC first) and queues its records.
     fn open_chunk(&mut self, data: &[u8]) -> Result<(), SessionError> {
-        let options = LinearReaderOptions::default()
-            .with_skip_start_magic(true)
-            .with_skip_end_magic(true)
-            .with_prevalidate_chunk_crcs(true)
-            .with_record_length_limit(RECORD_LENGTH_LIMIT);
-        let mut inner = LinearReader::new_with_options(options);
-        let buf = inner.insert(9 + data.len());
-        buf[0] = op::CHUNK;
-        buf[1..9].copy_from_slice(&(data.len() as u64).to_le_bytes());
-        buf[9..].copy_from_slice(data);
-        inner.notify_read(9 + data.len());
+        let mut inner = chunk_reader(data);
         let mut queued = VecDeque::new();
         let mut eof_sent = false;
         while let Some(event) = inner.next_event() {

@@ -355,7 +355,7 @@ impl<R: Read> Scanner<R> {
 
 /// A reader of one chunk record (`data` is its body) that decompresses the
 /// chunk and checks its CRC before yielding any of its records.
-fn chunk_reader(data: &[u8]) -> LinearReader {
+pub(crate) fn chunk_reader(data: &[u8]) -> LinearReader {
     let options = LinearReaderOptions::default()
         .with_skip_start_magic(true)
         .with_skip_end_magic(true)

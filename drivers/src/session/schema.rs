@@ -42,6 +42,19 @@ pub(crate) fn number(description: &str) -> Value {
     json!({ "type": "number", "description": description })
 }
 
+/// A unit quaternion `{x, y, z, w}`.
+pub(crate) fn quaternion(description: &str) -> Value {
+    closed_object(
+        description,
+        vec![
+            ("x", number("vector part x")),
+            ("y", number("vector part y")),
+            ("z", number("vector part z")),
+            ("w", number("scalar part")),
+        ],
+    )
+}
+
 /// A boolean.
 pub(crate) fn boolean(description: &str) -> Value {
     json!({ "type": "boolean", "description": description })

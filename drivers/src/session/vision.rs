@@ -250,15 +250,7 @@ impl ChannelMessage for ArucoDetection {
     const SCHEMA_NAME: &'static str = "slidetrack.ArucoDetection";
     fn json_schema() -> Value {
         let corner = array("[u, v] (px)", number("pixel coordinate (px)"), 2);
-        let quaternion = schema::closed_object(
-            "camera_from_marker rotation, unit quaternion",
-            vec![
-                ("x", number("vector part x")),
-                ("y", number("vector part y")),
-                ("z", number("vector part z")),
-                ("w", number("scalar part")),
-            ],
-        );
+        let quaternion = schema::quaternion("camera_from_marker rotation, unit quaternion");
         schema::message(
             Self::SCHEMA_NAME,
             "The object's marker in one camera frame; null fields when not detected",

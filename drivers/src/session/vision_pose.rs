@@ -358,15 +358,7 @@ impl ChannelMessage for ObjectTruth {
     const TOPIC: &'static str = "/sim/object";
     const SCHEMA_NAME: &'static str = "slidetrack.ObjectTruth";
     fn json_schema() -> Value {
-        let quaternion = schema::closed_object(
-            "camera_from_object rotation, unit quaternion",
-            vec![
-                ("x", number("vector part x")),
-                ("y", number("vector part y")),
-                ("z", number("vector part z")),
-                ("w", number("scalar part")),
-            ],
-        );
+        let quaternion = schema::quaternion("camera_from_object rotation, unit quaternion");
         schema::message(
             Self::SCHEMA_NAME,
             "The simulator's object pose and velocity in the camera frame",
