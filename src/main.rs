@@ -2,15 +2,6 @@
 
 mod cli;
 mod commands;
-mod dataset;
-mod dekf_run;
-mod hw_rig;
-mod observer;
-mod pipeline;
-mod plot;
-mod rig_config;
-mod tracking;
-mod trial;
 
 use std::process::ExitCode;
 

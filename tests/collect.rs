@@ -5,8 +5,8 @@ mod common;
 use std::process::Command;
 
 use common::{collect, fails, ok, python, tempdir};
-use slidetrack_drivers::session::{ReadOptions, SimTruth, TactileRaw, read_channel};
-use slidetrack_drivers::sim::sliding_episodes;
+use slidetrack_session::{ReadOptions, SimTruth, TactileRaw, read_channel};
+use slidetrack_sim::sliding_episodes;
 
 /// Every channel docs/session-format.md documents for a simulated session with camera.
 const DOCUMENTED: [&str; 11] = [

@@ -9,11 +9,11 @@ use std::path::{Path, PathBuf};
 use std::time::UNIX_EPOCH;
 
 use common::{fails, ok, tempdir};
-use slidetrack_drivers::hw::can_protocol::XelaCanLayout;
-use slidetrack_drivers::hw::offline::candump_line;
-use slidetrack_drivers::hw::serial_protocol::ModuleFrame;
-use slidetrack_drivers::session::{ReadOptions, TactileDecoder, TactileRaw, read_channel};
-use slidetrack_drivers::{RawTaxel, TimeNs};
+use slidetrack_core::{RawTaxel, TimeNs};
+use slidetrack_drivers::can_protocol::XelaCanLayout;
+use slidetrack_drivers::offline::candump_line;
+use slidetrack_drivers::serial_protocol::ModuleFrame;
+use slidetrack_session::{ReadOptions, TactileDecoder, TactileRaw, read_channel};
 
 const SEQUENCE: &str = "test/data_sample_2021-11-25-13-09-52";
 

@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 
 use common::{fails, ok, slidetrack, tempdir};
-use slidetrack_drivers::session::{
+use slidetrack_session::{
     ReadOptions, SessionInfo, TactileDecoder, TactileRaw, TactileZeroed, TaxelLayout, read_channel,
 };
 
@@ -118,7 +118,7 @@ fn collect_through_a_real_tty_gives_the_session_of_the_simulated_rig() {
     let zeroed = |f: &Path| read_channel::<TactileZeroed>(f, ReadOptions::default()).unwrap();
     let (hw_z, sim_z) = (zeroed(&hw), zeroed(&sim));
     for finger in 0..3 {
-        let z = |v: &[(slidetrack_drivers::TimeNs, TactileZeroed)]| {
+        let z = |v: &[(slidetrack_core::TimeNs, TactileZeroed)]| {
             mean_std(v.iter().map(|(_, m)| m.counts.into_array()[finger].z))
         };
         let ((mh, sh), (ms, ss)) = (z(&hw_z), z(&sim_z));

@@ -8,8 +8,8 @@ use std::path::Path;
 
 use common::{collect, fails, ok, run, tempdir};
 use serde_json::Value;
-use slidetrack_drivers::TimeNs;
-use slidetrack_drivers::session::{
+use slidetrack_core::TimeNs;
+use slidetrack_session::{
     ArucoDetection, GroundTruthMeasurement, GroundTruthSliding, MessageReader, NewChannel, ReadOptions,
     SessionInfo, TactileRaw, read_channel, rewrite_session,
 };

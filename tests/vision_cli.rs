@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use common::{fails, ok, tempdir};
 use serde_json::Value;
-use slidetrack_drivers::session::{ReadOptions, SessionInfo};
+use slidetrack_session::{ReadOptions, SessionInfo};
 
 fn rgbd(rel: &str) -> String {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/testdata/rgbd").join(rel);

@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 use criterion::{BatchSize, Criterion};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 use slidetrack_calibration::{Dictionary, MarkerDetector, MarkerTracker, marker_pattern, marker_pose};
-use slidetrack_drivers::sim::camera::{ObjectAppearance, SimCameraConfig, SimCameraRenderer, encode_jpeg};
-use slidetrack_drivers::{Image, PixelFormat};
+use slidetrack_core::{Image, PixelFormat, encode_jpeg};
+use slidetrack_sim::camera::{ObjectAppearance, SimCameraConfig, SimCameraRenderer};
 
 /// Budget for the whole per-frame path (ms).
 const BUDGET_MS: f64 = 3.0;
@@ -120,7 +120,7 @@ fn benches(c: &mut Criterion) {
         group.bench_function("whole_path", |b| {
             b.iter(|| {
                 k += 1;
-                let frame = r.render(&hand_from_object(k), slidetrack_drivers::TimeNs(k), k);
+                let frame = r.render(&hand_from_object(k), slidetrack_core::TimeNs(k), k);
                 let image = frame.pixels.as_ref().expect("rendered pixels");
                 let d = t.detect(image).expect("detects");
                 (frame, d.map(|d| marker_pose(&d, &intrinsics, 0.03)))

@@ -2,7 +2,7 @@
 
 use opencv::aruco::{self, DictionaryTraitConst};
 use opencv::core::{Mat, MatTraitConst, Ptr};
-use slidetrack_drivers::sim::camera::MarkerPattern;
+use slidetrack_core::MarkerPattern;
 
 use crate::error::{MarkerError, OpenCvContext};
 

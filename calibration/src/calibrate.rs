@@ -9,12 +9,10 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use opencv::aruco::{self, CharucoBoardTraitConst};
-use opencv::calib3d;
 use opencv::core::{self, Mat, MatTraitConst, Point2f, Point3f, Ptr, Size, TermCriteria, Vector};
-use opencv::imgcodecs;
-use opencv::imgproc;
 use opencv::prelude::*;
-use slidetrack_drivers::{CameraIntrinsics, Image, PixelFormat};
+use opencv::{calib3d, imgcodecs, imgproc};
+use slidetrack_core::{CameraIntrinsics, Image, PixelFormat};
 use thiserror::Error;
 
 use crate::aruco::Dictionary;

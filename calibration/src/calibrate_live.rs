@@ -2,17 +2,15 @@
 //! that add something (another part of the image, another distance, another
 //! tilt) until enough are kept. No preview window: progress goes to a callback.
 //!
-//! [`SimBoardCamera`] is a [`Camera`] of the simulated rig that shows a
-//! rendered chessboard moving in front of it, so the whole procedure runs
+//! Any [`Camera`] works, the simulated rig's `SimBoardCamera` (a rendered
+//! chessboard moving in front of it) included, so the whole procedure runs
 //! without hardware.
 
 use std::time::{Duration, Instant};
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use opencv::core::{Mat, MatTraitConst, Vector};
 use opencv::imgcodecs;
-use slidetrack_drivers::sim::camera::{Chessboard, ObjectAppearance, SimCameraConfig, SimCameraRenderer};
-use slidetrack_drivers::{Camera, CameraIntrinsics, DeviceError, ErrorKind, Frame, Image, TimeNs};
+use slidetrack_core::{Camera, DeviceError, Frame};
 
 use crate::calibrate::{CalibrationError, Cv, PatternFinder, PatternView, gray_mat};
 
@@ -247,74 +245,4 @@ pub enum LiveError {
     /// Finding the pattern failed.
     #[error(transparent)]
     Calibration(#[from] CalibrationError),
-}
-
-/// The simulated camera of the rig looking at a chessboard that someone
-/// moves in front of it: every poll renders the next frame (30 Hz simulated
-/// time), the board sweeping the image at 0.3 to 0.6 m with tilts up to
-/// about 30 degrees. Deterministic for a seed.
-pub struct SimBoardCamera {
-    renderer: SimCameraRenderer,
-    board: Chessboard,
-    intrinsics: CameraIntrinsics,
-    sequence: u64,
-    period_ns: u64,
-}
-
-impl SimBoardCamera {
-    /// A camera rendering `board` with the simulated camera `config`.
-    pub fn new(config: SimCameraConfig, board: Chessboard, seed: u64) -> Result<SimBoardCamera, LiveError> {
-        let marker = crate::marker_pattern("DICT_6X6_250", 0)
-            .map_err(|e| LiveError::Calibration(CalibrationError::Marker(e)))?;
-        let period_ns = config.frame_period_ns();
-        let renderer =
-            SimCameraRenderer::new(config, ObjectAppearance::default(), marker, seed).map_err(|e| {
-                LiveError::Camera(DeviceError::new(ErrorKind::Other, "sim board camera", e.to_string()))
-            })?;
-        let intrinsics = renderer.intrinsics().clone();
-        Ok(SimBoardCamera { renderer, board, intrinsics, sequence: 0, period_ns })
-    }
-
-    /// The board's pose in the camera frame at frame `k`.
-    pub fn camera_from_board(&self, k: u64) -> Isometry3<f64> {
-        let c = &self.intrinsics;
-        let phase = |period: f64, offset: f64| (std::f64::consts::TAU * k as f64 / period + offset).sin();
-        let z = 0.45 + 0.15 * phase(29.0, 0.3);
-        // Where the board centre appears, in pixels, then back to metres at depth z.
-        let u = c.cx + 0.22 * f64::from(c.width) * phase(37.0, 0.0);
-        let v = c.cy + 0.22 * f64::from(c.height) * phase(23.0, 1.0);
-        let centre = Vector3::new((u - c.cx) / c.fx * z, (v - c.cy) / c.fy * z, z);
-        let tilt = UnitQuaternion::from_euler_angles(
-            0.5 * phase(17.0, 0.5),
-            0.5 * phase(13.0, 2.0),
-            0.25 * phase(41.0, 0.0),
-        );
-        let [nx, ny] = self.board.inner_corners;
-        let s = self.board.square_size_m;
-        let board_centre = Vector3::new(f64::from(nx - 1) * s / 2.0, f64::from(ny - 1) * s / 2.0, 0.0);
-        Isometry3::from_parts(Translation3::from(centre), tilt) * Translation3::from(-board_centre)
-    }
-
-    /// Renders the board at `camera_from_board` (board frame as in OpenCV:
-    /// origin at the first inner corner, z into the board).
-    pub fn render(&self, camera_from_board: &Isometry3<f64>) -> Image {
-        self.renderer.render_board(&self.board, camera_from_board)
-    }
-}
-
-impl Camera for SimBoardCamera {
-    fn poll(&mut self) -> Result<Option<Frame>, DeviceError> {
-        let k = self.sequence;
-        let pixels = self.render(&self.camera_from_board(k));
-        self.sequence += 1;
-        Ok(Some(Frame { t: TimeNs(k * self.period_ns), sequence: k, pixels: Some(pixels), encoded: None }))
-    }
-
-    fn intrinsics(&self) -> &CameraIntrinsics {
-        &self.intrinsics
-    }
-
-    fn device(&self) -> &str {
-        "sim board camera"
-    }
 }

@@ -2,10 +2,11 @@
 //! and OpenCV's published result from its own chessboard photos.
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use slidetrack_drivers::sim::camera::{Chessboard, SimCameraConfig};
+use slidetrack_sim::SimBoardCamera;
+use slidetrack_sim::camera::{Chessboard, SimCameraConfig};
 
 use super::*;
-use crate::calibrate_live::{LiveOptions, SimBoardCamera, capture_views};
+use crate::calibrate_live::{LiveOptions, capture_views};
 
 fn testdata(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/testdata").join(rel)
@@ -14,7 +15,7 @@ fn testdata(rel: &str) -> PathBuf {
 /// Views of the sample board (9x6, 25 mm) at varied poses in front of the simulated camera.
 fn rendered_views(n: usize) -> (Vec<PatternView>, CameraIntrinsics) {
     let camera = SimBoardCamera::new(SimCameraConfig::default(), Chessboard::default(), 3).unwrap();
-    let intrinsics = slidetrack_drivers::Camera::intrinsics(&camera).clone();
+    let intrinsics = slidetrack_core::Camera::intrinsics(&camera).clone();
     let mut finder = PatternFinder::new("chessboard:9x6:0.025".parse().unwrap()).unwrap();
     let renderer_views: Vec<PatternView> = (0..n as u64 * 3)
         .filter_map(|k| {
@@ -99,7 +100,7 @@ fn an_image_without_the_pattern_gives_none_and_few_views_are_refused() {
 #[test]
 fn live_capture_from_the_simulated_board_camera_keeps_spread_views_and_calibrates() {
     let mut camera = SimBoardCamera::new(SimCameraConfig::default(), Chessboard::default(), 9).unwrap();
-    let truth = slidetrack_drivers::Camera::intrinsics(&camera).clone();
+    let truth = slidetrack_core::Camera::intrinsics(&camera).clone();
     let mut finder = PatternFinder::new("chessboard:9x6:0.025".parse().unwrap()).unwrap();
     let options = LiveOptions { views: 12, max_frames: 400, keep_images: true, ..LiveOptions::default() };
     let mut updates = 0;

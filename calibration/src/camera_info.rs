@@ -11,7 +11,7 @@ use opencv::core::{
 };
 use opencv::prelude::*;
 use serde_norway::Value;
-use slidetrack_drivers::CameraIntrinsics;
+use slidetrack_core::CameraIntrinsics;
 use thiserror::Error;
 
 /// The fields of a ROS `camera_info` file, all required.

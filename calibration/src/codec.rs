@@ -3,10 +3,9 @@
 //! USB camera would.
 
 use opencv::core::{Mat, Vec3b, Vector};
-use opencv::imgcodecs;
-use opencv::imgproc;
 use opencv::prelude::*;
-use slidetrack_drivers::{EncodedImage, Image, PixelFormat};
+use opencv::{imgcodecs, imgproc};
+use slidetrack_core::{EncodedImage, Image, PixelFormat};
 
 use crate::error::{MarkerError, OpenCvContext};
 

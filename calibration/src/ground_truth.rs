@@ -8,12 +8,11 @@
 
 use nalgebra::{Matrix3, Point3, Unit, Vector3};
 use serde::Deserialize;
-use slidetrack_drivers::TimeNs;
-use slidetrack_drivers::session::{ArucoDetection, GroundTruthMeasurement, GroundTruthSliding, SimTruth};
-use slidetrack_drivers::sim::camera::CameraPlacement;
+use slidetrack_core::{CameraPlacement, TimeNs};
 use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams, CvTrack};
 use slidetrack_estimators::kf::Gaussian;
 use slidetrack_estimators::rts::{Gate, MeasurementUse};
+use slidetrack_session::{ArucoDetection, GroundTruthMeasurement, GroundTruthSliding, SimTruth};
 use thiserror::Error;
 
 use crate::axis::SlidingAxis;

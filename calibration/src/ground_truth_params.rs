@@ -1,8 +1,8 @@
 //! The default smoother parameters of the ground truth, and their record in
 //! the channel metadata.
 
-use slidetrack_drivers::session::GroundTruthParameters;
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_session::GroundTruthParameters;
 
 use super::{Measurements, gate};
 

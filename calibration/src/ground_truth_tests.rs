@@ -1,7 +1,8 @@
 //! The ground truth on synthetic marker tracks.
 
 use nalgebra::{Isometry3, Point3, Vector3};
-use slidetrack_drivers::session::{ArucoDetection, PerFinger, SimTruth};
+use slidetrack_core::PerFinger;
+use slidetrack_session::{ArucoDetection, SimTruth};
 
 use super::*;
 

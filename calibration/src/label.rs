@@ -5,14 +5,14 @@
 
 use std::path::{Path, PathBuf};
 
-use slidetrack_drivers::TimeNs;
-use slidetrack_drivers::session::ground_truth::GROUND_TRUTH_PREFIX;
-use slidetrack_drivers::session::{
+use slidetrack_core::TimeNs;
+use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_session::ground_truth::GROUND_TRUTH_PREFIX;
+use slidetrack_session::{
     ArucoDetection, ChannelMessage, GroundTruthMeasurement, GroundTruthSliding, MessageReader, NewChannel,
     ProtocolEvent, ReadOptions, SESSION_METADATA, SessionError, SessionInfo, SimTruth, TactileRaw,
     rewrite_session,
 };
-use slidetrack_estimators::cv_smoother::CvSmootherParams;
 use thiserror::Error;
 
 use crate::ground_truth::{

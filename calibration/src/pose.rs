@@ -3,7 +3,7 @@
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use opencv::calib3d;
 use opencv::core::{Mat, MatTraitConstManual, Point2d, Point3d, Vector};
-use slidetrack_drivers::CameraIntrinsics;
+use slidetrack_core::CameraIntrinsics;
 
 use crate::aruco::MarkerDetection;
 use crate::error::{MarkerError, OpenCvContext};

@@ -2,7 +2,7 @@
 //! pose, detect it, recover the pose and the sliding position.
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use slidetrack_drivers::sim::camera::{ObjectAppearance, SimCameraConfig, SimCameraRenderer};
+use slidetrack_sim::camera::{ObjectAppearance, SimCameraConfig, SimCameraRenderer};
 
 use crate::{Dictionary, MarkerTracker, SlidingAxis, marker_pattern, marker_pose};
 
@@ -66,7 +66,7 @@ fn the_sliding_position_follows_the_truth_over_a_five_centimetre_slide() {
 #[test]
 fn markers_of_several_dictionaries_rendered_by_the_simulator_decode_to_their_ids() {
     let config =
-        SimCameraConfig { pixel_format: slidetrack_drivers::PixelFormat::Rgb8, ..SimCameraConfig::default() };
+        SimCameraConfig { pixel_format: slidetrack_core::PixelFormat::Rgb8, ..SimCameraConfig::default() };
     for (name, id) in
         [("DICT_4X4_50", 3), ("DICT_5X5_100", 42), ("DICT_ARUCO_ORIGINAL", 300), ("DICT_APRILTAG_36h11", 11)]
     {

@@ -9,7 +9,7 @@ mod safety;
 
 pub use pi::{PiConfig, PiController, PiOutput};
 pub use protocol::{
-    Baseline, ControlRecord, HandAction, Phase, Protocol, ProtocolConfig, ProtocolEvent, ProtocolSettings,
+    Baseline, ControlRecord, HandAction, Protocol, ProtocolConfig, ProtocolEvent, ProtocolSettings,
     ScanOutput, Tare,
 };
 pub use reference::{GraspProfile, partition};

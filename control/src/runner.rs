@@ -3,12 +3,12 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use slidetrack_drivers::sim::{SimTruth, TruthSource};
-use slidetrack_drivers::{
-    Camera, Clock, DecoderCounters, DeviceError, Frame, HandActuator, TactileSample, TactileSource, TimeNs,
+use slidetrack_core::{
+    Camera, Clock, DecoderCounters, DeviceError, Frame, HandActuator, Phase, SimTruth, TactileSample,
+    TactileSource, TimeNs, TruthSource,
 };
 
-use crate::protocol::{Baseline, ControlRecord, HandAction, Phase, Protocol, ProtocolEvent, Tare};
+use crate::protocol::{Baseline, ControlRecord, HandAction, Protocol, ProtocolEvent, Tare};
 use crate::safety::AbortReason;
 
 /// The devices of one rig.
@@ -160,7 +160,7 @@ fn observe_scan(
         }
         let max = rig.hand.max_volts();
         let saturated = volts.iter().any(|v| v.abs() > max);
-        observer.on_command(t, slidetrack_drivers::saturate(volts, max), saturated)?;
+        observer.on_command(t, slidetrack_core::saturate(volts, max), saturated)?;
     }
     if let Some(camera) = rig.camera.as_mut() {
         loop {

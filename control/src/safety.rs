@@ -1,7 +1,7 @@
 //! Why a trial stops early, and the limits that decide it.
 
 use serde::{Deserialize, Serialize};
-use slidetrack_drivers::{DeviceError, Finger};
+use slidetrack_core::{DeviceError, Finger};
 
 /// Limits checked throughout a trial. Crossing one aborts it with a safe release.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -1,9 +1,7 @@
 //! The protocol's safety limits, driven scan by scan without a rig.
 
-use slidetrack_control::{
-    AbortReason, GraspProfile, HandAction, Phase, Protocol, ProtocolConfig, ProtocolSettings,
-};
-use slidetrack_drivers::{DeviceError, ErrorKind, TactileSample, TimeNs};
+use slidetrack_control::{AbortReason, GraspProfile, HandAction, Protocol, ProtocolConfig, ProtocolSettings};
+use slidetrack_core::{DeviceError, ErrorKind, Phase, TactileSample, TimeNs};
 
 const BASE: u16 = 30_000;
 

@@ -6,11 +6,11 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use slidetrack_control::{
-    Baseline, ControlRecord, GraspProfile, ObserverError, Phase, Protocol, ProtocolConfig, ProtocolEvent,
+    Baseline, ControlRecord, GraspProfile, ObserverError, Protocol, ProtocolConfig, ProtocolEvent,
     ProtocolSettings, Rig, Tare, TrialObserver, TrialOutcome, run_trial,
 };
-use slidetrack_drivers::sim::{ObjectConfig, SimDevices, SimRigConfig, SimTruth, sliding_episodes};
-use slidetrack_drivers::{Frame, SimClock, TactileSample, TimeNs};
+use slidetrack_core::{Frame, Phase, SimClock, SimTruth, TactileSample, TimeNs};
+use slidetrack_sim::{ObjectConfig, SimDevices, SimRigConfig, sliding_episodes};
 
 #[derive(Default)]
 struct Collected {

@@ -1,44 +1,459 @@
-//! Reading TOML configuration files with errors that name the file and line.
+//! The `[hw]` table of a rig TOML: which device backs each role on the real rig.
+//!
+//! ```toml
+//! [hw]
+//! name = "lab-hand"
+//! [hw.tactile]
+//! kind = "serial"            # or "can", or "sim"
+//! port = "/dev/ttyACM0"      # "emulated": the simulated rig behind a pseudo-terminal
+//! fingers = { thumb = { module = 0, taxel = 5 }, index = { module = 1, taxel = 5 }, middle = { module = 2, taxel = 5 } }
+//! [hw.camera]
+//! kind = "v4l2"              # or "sim", or "none"
+//! device = "/dev/video0"
+//! [hw.hand]
+//! kind = "can"               # or "sim"
+//! interface = "can0"
+//! ```
 
-use serde::de::DeserializeOwned;
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+use slidetrack_core::{CameraIntrinsics, CameraPlacement, PerFinger, TaxelRef};
 use thiserror::Error;
 
-/// A configuration that could not be parsed.
-#[derive(Clone, Debug, Error, PartialEq, Eq)]
-#[error("{origin}{}: {detail}", line.map(|l| format!(" line {l}")).unwrap_or_default())]
-pub struct ConfigError {
-    /// The file (or other source) of the configuration.
-    pub origin: String,
-    /// The line of the error, 1-based, when known.
-    pub line: Option<usize>,
-    /// What is wrong.
-    pub detail: String,
+use crate::can_protocol::{CanLayoutError, XelaCanLayout};
+use crate::hand_can::{HandCanIds, HandFrameError};
+use crate::scan::default_finger_taxels;
+use crate::serial_protocol::MAX_TAXELS;
+
+/// The port name that selects the serial emulator instead of a device.
+pub const EMULATED_PORT: &str = "emulated";
+
+/// The devices of the real rig. Every role defaults to its simulated device.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HwRigConfig {
+    /// Name of the rig, recorded in the session metadata.
+    pub name: String,
+    /// The fingertip sensors.
+    pub tactile: TactileDevice,
+    /// The camera that sees the marker.
+    pub camera: CameraDevice,
+    /// The hand actuator.
+    pub hand: HandDevice,
 }
 
-/// Parses `text` as TOML into `T`; `origin` names the source in errors.
-pub fn parse_toml<T: DeserializeOwned>(text: &str, origin: &str) -> Result<T, ConfigError> {
-    toml::from_str(text).map_err(|e| ConfigError {
-        origin: origin.to_string(),
-        line: e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1),
-        detail: e.message().to_string(),
-    })
+impl Default for HwRigConfig {
+    fn default() -> Self {
+        HwRigConfig {
+            name: "hw".into(),
+            tactile: TactileDevice::Sim,
+            camera: CameraDevice::Sim,
+            hand: HandDevice::Sim,
+        }
+    }
+}
+
+/// The fingertip sensors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum TactileDevice {
+    /// The simulated modules (`[sim]` table), on the wall clock.
+    Sim,
+    /// uSkin-style modules streaming the serial format.
+    Serial(SerialTactileConfig),
+    /// uSkin board on CAN (XELA layout).
+    Can(CanTactileConfig),
+}
+
+/// uSkin-style modules on a serial port.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SerialTactileConfig {
+    /// Device path (`/dev/ttyACM0`), or `emulated` for the simulated rig
+    /// streaming the same bytes through a pseudo-terminal.
+    pub port: String,
+    /// Baud rate (ignored by USB CDC devices and pseudo-terminals).
+    pub baud: u32,
+    /// Nominal scan rate (Hz), recorded in the taxel layout. The emulator
+    /// runs at the `[sim]` tactile rate instead.
+    pub rate_hz: f64,
+    /// Taxels in each module's frame.
+    pub taxels_per_module: u16,
+    /// Longest wait for a scan once streaming (ms).
+    pub timeout_ms: u64,
+    /// Longest wait for the first scan after opening the port (ms).
+    pub startup_timeout_ms: u64,
+    /// The module and taxel each finger reads.
+    pub fingers: PerFinger<TaxelRef>,
+    /// Faults the emulator injects (only with `port = "emulated"`).
+    pub emulator: EmulatorConfig,
+}
+
+impl Default for SerialTactileConfig {
+    fn default() -> Self {
+        SerialTactileConfig {
+            port: "/dev/ttyACM0".into(),
+            baud: 921_600,
+            rate_hz: 100.0,
+            taxels_per_module: 16,
+            timeout_ms: 50,
+            startup_timeout_ms: 2000,
+            fingers: default_finger_taxels(),
+            emulator: EmulatorConfig::default(),
+        }
+    }
+}
+
+/// Faults the serial emulator injects, for tests and demonstrations.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EmulatorConfig {
+    /// Close the pseudo-terminal (as if the device were unplugged) this long
+    /// after the first scan (s).
+    pub unplug_after_s: Option<f64>,
+    /// Flip a payload bit in every n-th frame (0: never).
+    pub corrupt_every_frames: u32,
+    /// Insert a few bytes of garbage before every n-th frame (0: never).
+    pub garbage_every_frames: u32,
+}
+
+/// A uSkin board on CAN.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CanTactileConfig {
+    /// SocketCAN interface (`can0`, `vcan0`).
+    pub interface: String,
+    /// Board id (the start command goes to `start_base_id | board`).
+    pub board: u8,
+    /// Base id of the start command.
+    pub start_base_id: u32,
+    /// Id of taxel 0's frames.
+    pub taxel_base_id: u32,
+    /// Taxels on the board (all modules together).
+    pub taxels: u16,
+    /// Taxels per module: finger `{module, taxel}` is board taxel
+    /// `module * taxels_per_module + taxel`.
+    pub taxels_per_module: u16,
+    /// Nominal scan rate (Hz), for the layout and scan assembly.
+    pub rate_hz: f64,
+    /// Longest wait for a scan once streaming (ms).
+    pub timeout_ms: u64,
+    /// Longest wait for the first scan after the start command (ms).
+    pub startup_timeout_ms: u64,
+    /// The module and taxel each finger reads.
+    pub fingers: PerFinger<TaxelRef>,
+}
+
+impl Default for CanTactileConfig {
+    fn default() -> Self {
+        let layout = XelaCanLayout::default();
+        CanTactileConfig {
+            interface: "can0".into(),
+            board: layout.board,
+            start_base_id: layout.start_base_id,
+            taxel_base_id: layout.taxel_base_id,
+            taxels: 48,
+            taxels_per_module: 16,
+            rate_hz: 100.0,
+            timeout_ms: 50,
+            startup_timeout_ms: 2000,
+            fingers: default_finger_taxels(),
+        }
+    }
+}
+
+impl CanTactileConfig {
+    /// The board's CAN layout.
+    pub fn layout(&self) -> XelaCanLayout {
+        XelaCanLayout {
+            board: self.board,
+            start_base_id: self.start_base_id,
+            taxel_base_id: self.taxel_base_id,
+            taxels: self.taxels,
+        }
+    }
+
+    /// The board taxel each finger reads, `[thumb, index, middle]`.
+    pub fn board_taxels(&self) -> [usize; 3] {
+        self.fingers
+            .into_array()
+            .map(|r| r.module as usize * usize::from(self.taxels_per_module) + r.taxel as usize)
+    }
+}
+
+/// The camera that sees the marker.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum CameraDevice {
+    /// No camera.
+    None,
+    /// The simulated camera (`[camera]` table).
+    Sim,
+    /// A V4L2 camera.
+    V4l2(Box<V4l2CameraConfig>),
+}
+
+/// Pixel formats slidetrack streams from V4L2 cameras.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum V4l2PixelFormat {
+    /// Motion JPEG: recorded as it comes, decoded for detection.
+    #[serde(rename = "MJPG")]
+    Mjpg,
+    /// YUV 4:2:2: the luma drives detection, frames are JPEG-encoded for the session.
+    #[serde(rename = "YUYV")]
+    Yuyv,
+    /// 16-bit depth of RGB-D cameras: recorded as 16-bit PNG, no detection.
+    #[serde(rename = "Z16")]
+    Z16,
+}
+
+impl V4l2PixelFormat {
+    /// The V4L2 fourcc code.
+    pub fn fourcc(self) -> [u8; 4] {
+        match self {
+            V4l2PixelFormat::Mjpg => *b"MJPG",
+            V4l2PixelFormat::Yuyv => *b"YUYV",
+            V4l2PixelFormat::Z16 => *b"Z16 ",
+        }
+    }
+}
+
+/// A V4L2 camera.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct V4l2CameraConfig {
+    /// Device node.
+    pub device: String,
+    /// Frame width (px).
+    pub width: u32,
+    /// Frame height (px).
+    pub height: u32,
+    /// Pixel format to stream.
+    pub pixel_format: V4l2PixelFormat,
+    /// Frame rate to ask for (Hz).
+    pub fps: f64,
+    /// Memory-mapped buffers.
+    pub buffers: u32,
+    /// Longest wait for a frame before the camera counts as gone (ms).
+    pub timeout_ms: u64,
+    /// JPEG quality for formats recorded re-encoded (YUYV), 1-100.
+    pub jpeg_quality: u8,
+    /// Camera calibration file: ROS `camera_info` or OpenCV YAML, or TOML
+    /// with the fields of `intrinsics`.
+    pub calibration: Option<PathBuf>,
+    /// Intrinsics given inline, when there is no calibration file.
+    pub intrinsics: Option<CameraIntrinsics>,
+    /// Where the camera is in the hand frame.
+    pub placement: CameraPlacement,
+}
+
+impl Default for V4l2CameraConfig {
+    fn default() -> Self {
+        V4l2CameraConfig {
+            device: "/dev/video0".into(),
+            width: 640,
+            height: 480,
+            pixel_format: V4l2PixelFormat::Mjpg,
+            fps: 30.0,
+            buffers: 4,
+            timeout_ms: 1000,
+            jpeg_quality: 90,
+            calibration: None,
+            intrinsics: None,
+            placement: CameraPlacement::default(),
+        }
+    }
+}
+
+/// The hand actuator.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum HandDevice {
+    /// The simulated hand (`[sim]` table).
+    Sim,
+    /// The hand on CAN.
+    Can(CanHandConfig),
+}
+
+/// The hand on CAN.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CanHandConfig {
+    /// SocketCAN interface.
+    pub interface: String,
+    /// Id of the set-point frame.
+    pub setpoint_id: u32,
+    /// Id of the heartbeat frame.
+    pub heartbeat_id: u32,
+    /// Id of the release frame.
+    pub release_id: u32,
+    /// Heartbeat period (ms); the hand opens by itself after three missed.
+    pub heartbeat_ms: u64,
+    /// Largest voltage magnitude sent (V).
+    pub max_volts: f64,
+}
+
+impl Default for CanHandConfig {
+    fn default() -> Self {
+        let ids = HandCanIds::default();
+        CanHandConfig {
+            interface: "can0".into(),
+            setpoint_id: ids.setpoint_id,
+            heartbeat_id: ids.heartbeat_id,
+            release_id: ids.release_id,
+            heartbeat_ms: 20,
+            max_volts: 10.0,
+        }
+    }
+}
+
+impl CanHandConfig {
+    /// The frame ids.
+    pub fn ids(&self) -> HandCanIds {
+        HandCanIds {
+            setpoint_id: self.setpoint_id,
+            heartbeat_id: self.heartbeat_id,
+            release_id: self.release_id,
+        }
+    }
+}
+
+/// A `[hw]` table with values that cannot work.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum HwConfigError {
+    /// A number outside its range.
+    #[error("hw.{field} = {value} is out of range ({expected})")]
+    OutOfRange {
+        /// The setting, as in the file.
+        field: String,
+        /// Its value.
+        value: f64,
+        /// The valid range, in words.
+        expected: &'static str,
+    },
+    /// A finger reads a taxel the device does not have.
+    #[error(
+        "hw.tactile.fingers.{finger} = {{ module = {module}, taxel = {taxel} }} is beyond the device ({detail})"
+    )]
+    FingerTaxel {
+        /// The finger.
+        finger: &'static str,
+        /// Module asked for.
+        module: u32,
+        /// Taxel asked for.
+        taxel: u32,
+        /// What the device has.
+        detail: String,
+    },
+    /// Bad CAN ids of the tactile board.
+    #[error("hw.tactile: {0}")]
+    CanLayout(#[from] CanLayoutError),
+    /// Bad CAN ids of the hand.
+    #[error("hw.hand: {0}")]
+    HandIds(#[from] HandFrameError),
+    /// A V4L2 camera with neither a calibration file nor inline intrinsics,
+    /// or inline intrinsics of another size.
+    #[error("hw.camera: {0}")]
+    Camera(String),
+}
+
+fn check(field: &str, value: f64, ok: bool, expected: &'static str) -> Result<(), HwConfigError> {
+    if ok { Ok(()) } else { Err(HwConfigError::OutOfRange { field: field.into(), value, expected }) }
+}
+
+impl HwRigConfig {
+    /// Checks what serde's types cannot.
+    pub fn validate(&self) -> Result<(), HwConfigError> {
+        match &self.tactile {
+            TactileDevice::Sim => {}
+            TactileDevice::Serial(s) => {
+                check("tactile.rate_hz", s.rate_hz, s.rate_hz.is_finite() && s.rate_hz > 0.0, "> 0 Hz")?;
+                let n = f64::from(s.taxels_per_module);
+                let ok = (1..=MAX_TAXELS).contains(&usize::from(s.taxels_per_module));
+                check("tactile.taxels_per_module", n, ok, "1..=64")?;
+                check("tactile.timeout_ms", s.timeout_ms as f64, s.timeout_ms > 0, "> 0 ms")?;
+                for (name, r) in finger_refs(&s.fingers) {
+                    if r.module > 255 || r.taxel >= u32::from(s.taxels_per_module) {
+                        let detail = format!("modules 0..=255 of {} taxels", s.taxels_per_module);
+                        return Err(HwConfigError::FingerTaxel {
+                            finger: name,
+                            module: r.module,
+                            taxel: r.taxel,
+                            detail,
+                        });
+                    }
+                }
+                if let Some(t) = s.emulator.unplug_after_s {
+                    check("tactile.emulator.unplug_after_s", t, t.is_finite() && t >= 0.0, ">= 0 s")?;
+                }
+            }
+            TactileDevice::Can(c) => {
+                c.layout().validate()?;
+                check("tactile.rate_hz", c.rate_hz, c.rate_hz.is_finite() && c.rate_hz > 0.0, "> 0 Hz")?;
+                check("tactile.timeout_ms", c.timeout_ms as f64, c.timeout_ms > 0, "> 0 ms")?;
+                let per = f64::from(c.taxels_per_module);
+                check("tactile.taxels_per_module", per, c.taxels_per_module > 0, ">= 1")?;
+                for ((name, r), board) in finger_refs(&c.fingers).into_iter().zip(c.board_taxels()) {
+                    if r.taxel >= u32::from(c.taxels_per_module) || board >= usize::from(c.taxels) {
+                        let detail = format!("{} taxels, {} per module", c.taxels, c.taxels_per_module);
+                        return Err(HwConfigError::FingerTaxel {
+                            finger: name,
+                            module: r.module,
+                            taxel: r.taxel,
+                            detail,
+                        });
+                    }
+                }
+            }
+        }
+        if let CameraDevice::V4l2(v) = &self.camera {
+            check("camera.fps", v.fps, v.fps.is_finite() && v.fps > 0.0, "> 0 Hz")?;
+            check("camera.width", f64::from(v.width), v.width > 0 && v.width <= 65535, "1..=65535 px")?;
+            check("camera.height", f64::from(v.height), v.height > 0 && v.height <= 65535, "1..=65535 px")?;
+            check("camera.buffers", f64::from(v.buffers), (2..=32).contains(&v.buffers), "2..=32")?;
+            let q = f64::from(v.jpeg_quality);
+            check("camera.jpeg_quality", q, (1..=100).contains(&v.jpeg_quality), "1..=100")?;
+            match (&v.calibration, &v.intrinsics) {
+                (None, None) => {
+                    return Err(HwConfigError::Camera(
+                        "a V4L2 camera needs `calibration = \"camera.yaml\"` or inline `intrinsics` \
+                         (width, height, fx, fy, cx, cy, distortion)"
+                            .into(),
+                    ));
+                }
+                (_, Some(k)) if (k.width, k.height) != (v.width, v.height) => {
+                    return Err(HwConfigError::Camera(format!(
+                        "intrinsics are for {}x{} px but the camera streams {}x{} px",
+                        k.width, k.height, v.width, v.height
+                    )));
+                }
+                _ => {}
+            }
+        }
+        if let HandDevice::Can(h) = &self.hand {
+            h.ids().validate()?;
+            check("hand.max_volts", h.max_volts, h.max_volts.is_finite() && h.max_volts > 0.0, "> 0 V")?;
+            let hb = h.heartbeat_ms as f64;
+            check("hand.heartbeat_ms", hb, (1..=1000).contains(&h.heartbeat_ms), "1..=1000 ms")?;
+        }
+        Ok(())
+    }
+
+    /// Nominal tactile scan rate of the configured device (Hz), `sim_rate_hz`
+    /// for the simulated and emulated sensors.
+    pub fn tactile_rate_hz(&self, sim_rate_hz: f64) -> f64 {
+        match &self.tactile {
+            TactileDevice::Serial(s) if s.port != EMULATED_PORT => s.rate_hz,
+            TactileDevice::Can(c) => c.rate_hz,
+            _ => sim_rate_hz,
+        }
+    }
+}
+
+fn finger_refs(map: &PerFinger<TaxelRef>) -> [(&'static str, TaxelRef); 3] {
+    [("thumb", map.thumb), ("index", map.index), ("middle", map.middle)]
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[derive(Debug, serde::Deserialize)]
-    #[serde(deny_unknown_fields)]
-    #[allow(dead_code)]
-    struct Example {
-        a: f64,
-    }
-
-    #[test]
-    fn errors_name_the_origin_and_line() {
-        let e = parse_toml::<Example>("# comment\n\nb = 1\n", "rig.toml").unwrap_err();
-        assert_eq!(e.line, Some(3));
-        assert!(e.to_string().starts_with("rig.toml line 3: unknown field `b`"), "{e}");
-    }
-}
+mod tests;

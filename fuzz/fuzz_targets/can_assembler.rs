@@ -6,8 +6,8 @@
 use std::time::Duration;
 
 use libfuzzer_sys::fuzz_target;
-use slidetrack_drivers::TimeNs;
-use slidetrack_drivers::hw::can_protocol::{CanFrame, CanScanAssembler, XelaCanLayout};
+use slidetrack_core::TimeNs;
+use slidetrack_drivers::can_protocol::{CanFrame, CanScanAssembler, XelaCanLayout};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&taxels, mut rest)) = data.split_first() else { return };

@@ -4,8 +4,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use slidetrack_drivers::hw::scan::{ModuleScanAssembler, default_finger_taxels};
-use slidetrack_drivers::hw::serial_protocol::{DECODER_CAPACITY, SerialDecoder, SerialEvent};
+use slidetrack_drivers::scan::{ModuleScanAssembler, default_finger_taxels};
+use slidetrack_drivers::serial_protocol::{DECODER_CAPACITY, SerialDecoder, SerialEvent};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&chunk, bytes)) = data.split_first() else { return };

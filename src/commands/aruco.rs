@@ -7,7 +7,7 @@ use slidetrack_calibration::marker_tool::{
     Refinement, ToolDictionary, detect_markers, detector_parameters, read_image,
 };
 use slidetrack_calibration::{MarkerDetection, MarkerPose, marker_pose};
-use slidetrack_drivers::CameraIntrinsics;
+use slidetrack_core::CameraIntrinsics;
 
 use crate::cli::{ArucoArgs, ArucoCommand, ArucoDetectArgs, RefineArg};
 

@@ -6,11 +6,11 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result};
 use serde_json::json;
-use slidetrack_drivers::sim::ObjectConfig;
+use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_experiment::trial::{TrialSpec, run_sim_trial};
+use slidetrack_sim::ObjectConfig;
 
 use crate::cli::{BenchArgs, BenchWhat};
-use crate::rig_config::RigConfig;
-use crate::trial::{TrialSpec, run_sim_trial};
 
 /// Speed targets (multiples of real time).
 const CAMERA_TARGET: f64 = 10.0;

@@ -11,13 +11,13 @@ use std::time::Instant;
 use anyhow::Result;
 use rand::SeedableRng;
 use serde_json::{Value, json};
-use slidetrack_drivers::sim::ObjectConfig;
 use slidetrack_estimators::dekf::{DekfModel, DekfTracker, Measurement, ModelMeta};
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
-
-use crate::dataset::{ChannelSet, TruthSource};
-use crate::rig_config::RigConfig;
-use crate::trial::{TrialSpec, run_sim_trial, session_file_name};
+use slidetrack_experiment::dataset::{ChannelSet, TruthSource, load};
+use slidetrack_experiment::dekf_train::TrainSpec;
+use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_experiment::trial::{TrialSpec, run_sim_trial, session_file_name};
+use slidetrack_sim::ObjectConfig;
 
 /// Target time of one online step (s).
 const STEP_TARGET_S: f64 = 20e-6;
@@ -115,28 +115,19 @@ pub fn training(dir: &Path, runs: usize, threads: usize, quiet: bool) -> Result<
     let collected = Instant::now();
     let files = thesis_sized_set(dir, 50, 60.0)?;
     let collect_s = collected.elapsed().as_secs_f64();
-    let args = super::train::TrainArgs {
-        sessions: files,
+    let spec = TrainSpec {
         channels: ChannelSet::Xy,
-        measurement: super::train::MeasurementArg::Derivative,
-        out: dir.join("bench.safetensors"),
-        rate_hz: 30.0,
-        schedule: "2:5,4:5,8:5,16:5,32:5".into(),
-        batch: 32,
-        lr: 1e-3,
         seed: 1,
         threads,
-        position_shift: super::train::DEFAULT_POSITION_SHIFT_CM,
-        no_select: false,
         truth: TruthSource::Sim,
-        plot: None,
-        json: false,
+        ..TrainSpec::default()
     };
+    let sessions = files.iter().map(|f| load(f, Some(spec.truth))).collect::<Result<Vec<_>>>()?;
     let mut seconds = Vec::new();
     let mut steps = 0;
     let mut rmse = [f64::NAN; 2];
     for _ in 0..runs.max(1) {
-        let trained = super::train::fit(&args, quiet)?;
+        let trained = super::train::fit_with_progress(&spec, &sessions, quiet)?;
         seconds.push(trained.seconds);
         steps = trained.model.meta.training["steps"].as_u64().unwrap_or(0);
         rmse = trained.epochs.last().map_or(rmse, |e| e.rmse);

@@ -1,7 +1,6 @@
 //! `slidetrack calibrate camera`: intrinsics from pattern views, to ROS or OpenCV YAML.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
@@ -10,15 +9,14 @@ use slidetrack_calibration::calibrate::{
     CalibrateOptions, Calibration, CalibrationError, MIN_VIEWS, Pattern, PatternFinder, PatternView,
     calibrate, read_gray,
 };
-use slidetrack_calibration::calibrate_live::{FrameVerdict, LiveOptions, SimBoardCamera, capture_views};
+use slidetrack_calibration::calibrate_live::{FrameVerdict, LiveOptions, capture_views};
 use slidetrack_calibration::camera_info::{CalibrationFormat, CameraInfo, write_camera_info};
-use slidetrack_drivers::hw::V4l2Camera;
-use slidetrack_drivers::hw::config::V4l2CameraConfig;
-use slidetrack_drivers::sim::camera::Chessboard;
-use slidetrack_drivers::{Camera, CameraIntrinsics, Clock, WallClock};
+use slidetrack_core::Camera;
+use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_sim::SimBoardCamera;
+use slidetrack_sim::camera::Chessboard;
 
 use crate::cli::{CalibrateArgs, CalibrateCameraArgs, CalibrateCommand, CalibrationFormatArg};
-use crate::rig_config::RigConfig;
 
 pub fn run(args: &CalibrateArgs, quiet: bool) -> Result<()> {
     match &args.what {
@@ -220,7 +218,14 @@ fn save_views(dir: &Path, pngs: &[Vec<u8>]) -> Result<Vec<(PathBuf, bool)>> {
 
 /// The V4L2 camera at `device`, streaming `width x height` MJPG at 30 fps.
 /// Its intrinsics are what is being calibrated: a placeholder is passed.
+#[cfg(all(feature = "devices", target_os = "linux"))]
 fn open_v4l2(device: &Path, width: u32, height: u32) -> Result<Box<dyn Camera>> {
+    use std::sync::Arc;
+
+    use slidetrack_core::{CameraIntrinsics, Clock, WallClock};
+    use slidetrack_drivers::V4l2Camera;
+    use slidetrack_drivers::config::V4l2CameraConfig;
+
     let config = V4l2CameraConfig {
         device: device.display().to_string(),
         width,
@@ -239,6 +244,11 @@ fn open_v4l2(device: &Path, width: u32, height: u32) -> Result<Box<dyn Camera>> 
     let clock: Arc<dyn Clock> = Arc::new(WallClock::start());
     let camera = V4l2Camera::open(&config, placeholder, clock)?;
     Ok(Box::new(camera))
+}
+
+#[cfg(not(all(feature = "devices", target_os = "linux")))]
+fn open_v4l2(_device: &Path, _width: u32, _height: u32) -> Result<Box<dyn Camera>> {
+    Err(super::without_devices("calibrate camera --device"))
 }
 
 fn to_json(c: &Calibration, views: &Views, args: &CalibrateCameraArgs) -> serde_json::Value {

@@ -5,11 +5,13 @@ use std::sync::atomic::Ordering;
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_control::AbortReason;
-use slidetrack_drivers::sim::ObjectConfig;
+use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_experiment::trial::{
+    TrialReport, TrialSpec, build_rig, prepare_out_dir, record_trial, session_file_name,
+};
+use slidetrack_sim::ObjectConfig;
 
 use crate::cli::CollectArgs;
-use crate::rig_config::RigConfig;
-use crate::trial::{TrialReport, TrialSpec, build_rig, prepare_out_dir, record_trial, session_file_name};
 
 /// Expected length of a trial beyond its cycles: zeroing, closing, ramp,
 /// settle and release (s), for the progress bar.
@@ -60,10 +62,10 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
             overwrite: args.run.overwrite,
             path,
         };
-        let mut progress = |t: slidetrack_drivers::TimeNs| {
+        let mut progress = |t: slidetrack_core::TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
         };
-        let report = record_trial(build_rig(args.run.rig, &spec)?, &spec, &stop, &mut progress)?;
+        let report = record_trial(build_rig(args.run.rig.into(), &spec)?, &spec, &stop, &mut progress)?;
         bar.suspend(|| println!("{}", report.summary_line()));
         if let Some(counters) = report.stats.decoder {
             bar.suspend(|| println!("  tactile decoder: {counters}"));

@@ -10,15 +10,15 @@ use std::time::SystemTime;
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use slidetrack_drivers::hw::config::{CanTactileConfig, HwRigConfig, SerialTactileConfig, TactileDevice};
-use slidetrack_drivers::hw::offline::{CanLogDecoder, SerialCaptureDecoder};
-use slidetrack_drivers::session::{
+use slidetrack_core::{DecoderCounters, TactileInfo, TactileSample, TimeNs};
+use slidetrack_drivers::config::{CanTactileConfig, HwRigConfig, SerialTactileConfig, TactileDevice};
+use slidetrack_drivers::offline::{CanLogDecoder, SerialCaptureDecoder};
+use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_session::{
     ChannelHandle, Recorder, RecorderOptions, SessionMetadata, TactileDecoder, TactileRaw, TaxelLayout,
 };
-use slidetrack_drivers::{DecoderCounters, TactileInfo, TactileSample, TimeNs};
 
 use crate::cli::DecodeArgs;
-use crate::rig_config::RigConfig;
 
 /// Name of the metadata record that says where a decoded session came from.
 const SOURCE_METADATA: &str = "slidetrack.source";
@@ -103,7 +103,7 @@ fn configured_tactile(path: Option<&Path>) -> Result<Option<TactileDevice>> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read rig config {}", path.display()))?;
     let rig: RigConfig =
-        slidetrack_drivers::parse_toml(&text, &path.display().to_string()).context("invalid rig config")?;
+        slidetrack_core::parse_toml(&text, &path.display().to_string()).context("invalid rig config")?;
     Ok(rig.hw.map(|hw| hw.tactile))
 }
 

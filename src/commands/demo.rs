@@ -7,13 +7,14 @@
 use std::time::Instant;
 
 use anyhow::{Result, bail};
+use slidetrack_experiment::dataset::{ChannelSet, TruthSource, load};
+use slidetrack_experiment::dekf_eval::{evaluate, table};
+use slidetrack_experiment::dekf_run::{save_model, write_atomically};
+use slidetrack_experiment::dekf_train::TrainSpec;
+use slidetrack_experiment::pipeline::{DataSpec, collect, label, threads};
 
-use super::eval::{evaluate, table};
-use super::train::{DEFAULT_POSITION_SHIFT_CM, MeasurementArg, TrainArgs, fit, plot_training_curve};
-use crate::cli::{DemoArgs, PlotArgs, PlotKind};
-use crate::dataset::{ChannelSet, TruthSource};
-use crate::dekf_run::save_model;
-use crate::pipeline::{DataSpec, collect, label, threads};
+use super::train::{fit_with_progress, plot_training_curve};
+use crate::cli::{DemoArgs, PlotArgs, PlotKind, ReplayArgs};
 
 pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     if args.train == 0 || args.test == 0 {
@@ -47,26 +48,15 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
 
     step(&format!("training the dEKF on {} sessions (xy channels, tactile derivative)", train.len()));
     let model_path = args.out.join("box-xy.safetensors");
-    let trained = fit(
-        &TrainArgs {
-            sessions: train.to_vec(),
-            channels: ChannelSet::Xy,
-            measurement: MeasurementArg::Derivative,
-            out: model_path.clone(),
-            rate_hz: 30.0,
-            schedule: "2:5,4:5,8:5,16:5,32:5".into(),
-            batch: 32,
-            lr: 1e-3,
-            seed: args.seed,
-            threads: workers,
-            position_shift: DEFAULT_POSITION_SHIFT_CM,
-            no_select: false,
-            truth: TruthSource::GroundTruth,
-            plot: None,
-            json: false,
-        },
-        quiet,
-    )?;
+    let spec = TrainSpec {
+        channels: ChannelSet::Xy,
+        seed: args.seed,
+        threads: workers,
+        truth: TruthSource::GroundTruth,
+        ..TrainSpec::default()
+    };
+    let sessions = train.iter().map(|f| load(f, Some(spec.truth))).collect::<Result<Vec<_>>>()?;
+    let trained = fit_with_progress(&spec, &sessions, quiet)?;
     save_model(&trained.model, &model_path)?;
     println!("  {} ({:.1} s of training)", model_path.display(), trained.seconds);
     plot_training_curve(&trained.epochs, &args.out.join("training-curve.png"))?;
@@ -81,15 +71,12 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
         ratio * 100.0,
         report.mean.baseline_position_rmse_cm
     );
-    crate::dekf_run::write_atomically(
-        &args.out.join("eval.json"),
-        serde_json::to_string_pretty(&report)?.as_bytes(),
-    )?;
+    write_atomically(&args.out.join("eval.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
 
     step("plots");
     let first_test = &test[0];
     let replayed = args.out.join("replay.mcap");
-    super::replay::run_cmd(&super::replay::ReplayArgs {
+    super::replay::run_cmd(&ReplayArgs {
         file: first_test.clone(),
         model: model_path,
         out: replayed,

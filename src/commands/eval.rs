@@ -1,152 +1,18 @@
 //! `slidetrack eval`: the dEKF's errors on sessions against their truth
 //! (Table 6.1), beside the zero-motion baseline.
 
-use std::path::{Path, PathBuf};
-
-use anyhow::{Result, bail};
-use clap::Args;
-use serde::Serialize;
+use anyhow::Result;
 use serde_json::json;
-use slidetrack_estimators::dekf::DekfModel;
+use slidetrack_experiment::dataset::expand;
+use slidetrack_experiment::dekf_eval::{evaluate, table};
+use slidetrack_experiment::dekf_run::load_model;
 
-use crate::dataset::{SessionData, TruthSource, expand, load};
-use crate::dekf_run::{CM, Scores, load_model, mean_scores, run, score};
-
-/// Arguments of `eval`.
-#[derive(Debug, Args, Clone)]
-pub struct EvalArgs {
-    /// Model file (.safetensors).
-    #[arg(long)]
-    pub model: PathBuf,
-    /// Session files (labelled), or directories of them.
-    #[arg(required = true)]
-    pub files: Vec<PathBuf>,
-    /// Score against the ArUco ground truth (default) or the simulator's truth.
-    #[arg(long, value_enum, default_value_t = TruthSource::GroundTruth)]
-    pub truth: TruthSource,
-    /// Print JSON instead of a table.
-    #[arg(long)]
-    pub json: bool,
-}
-
-/// The scores of one session.
-#[derive(Clone, Debug, Serialize)]
-pub struct SessionScores {
-    /// The file.
-    pub file: String,
-    /// Against the chosen truth.
-    #[serde(flatten)]
-    pub scores: Scores,
-    /// Against `/sim/truth`, when the session has it and the chosen truth is another.
-    pub sim: Option<Scores>,
-}
-
-/// Scores of a model on several sessions.
-#[derive(Clone, Debug, Serialize)]
-pub struct EvalReport {
-    /// Averages over sessions.
-    #[serde(flatten)]
-    pub mean: Scores,
-    /// The truth scored against.
-    pub against: String,
-    /// Averages against `/sim/truth` over the sessions that have it.
-    pub sim: Option<Scores>,
-    /// Per session.
-    pub sessions: Vec<SessionScores>,
-}
-
-/// Scores of `model` on one session against `truth` (relative to the first step).
-pub fn score_session(model: &DekfModel, data: &SessionData) -> Result<Scores> {
-    let outputs = run(model, data)?;
-    let Some(truth) = &data.truth else { bail!("{} has no truth to score against", data.path.display()) };
-    let start = data.times.iter().position(|t| *t == outputs[0].0).unwrap_or(0);
-    let origin = truth[start][0];
-    let index: std::collections::HashMap<u64, usize> =
-        data.times.iter().enumerate().map(|(i, t)| (t.0, i)).collect();
-    let mut est = Vec::with_capacity(outputs.len());
-    let mut tru = Vec::with_capacity(outputs.len());
-    for (t, o) in &outputs {
-        if let Some(&i) = index.get(&t.0) {
-            est.push(o.mean);
-            tru.push([(truth[i][0] - origin) * CM, truth[i][1] * CM]);
-        }
-    }
-    Ok(score(&est, &tru))
-}
-
-/// Evaluates `model` on `files` against `truth`.
-pub fn evaluate(model: &DekfModel, files: &[PathBuf], truth: TruthSource) -> Result<EvalReport> {
-    let mut sessions = Vec::new();
-    for f in files {
-        let main = score_session(model, &load(f, Some(truth))?)?;
-        let sim = if truth != TruthSource::Sim {
-            match load(f, Some(TruthSource::Sim)) {
-                Ok(d) => Some(score_session(model, &d)?),
-                Err(_) => None,
-            }
-        } else {
-            None
-        };
-        sessions.push(SessionScores { file: f.display().to_string(), scores: main, sim });
-    }
-    let mean = mean_scores(&sessions.iter().map(|s| s.scores.clone()).collect::<Vec<_>>());
-    let sims: Vec<Scores> = sessions.iter().filter_map(|s| s.sim.clone()).collect();
-    Ok(EvalReport {
-        mean,
-        against: truth.topic().into(),
-        sim: (!sims.is_empty()).then(|| mean_scores(&sims)),
-        sessions,
-    })
-}
-
-fn row(name: &str, s: &Scores) -> String {
-    format!(
-        "{name:<34} {:>8.3} {:>8.3} {:>9.3} {:>9.3} {:>10.3}",
-        s.position_rmse_cm,
-        s.position_max_cm,
-        s.velocity_rmse_cmps,
-        s.velocity_max_cmps,
-        s.baseline_position_rmse_cm
-    )
-}
-
-/// The report as a table.
-pub fn table(r: &EvalReport) -> String {
-    let mut out = format!(
-        "against {}\n{:<34} {:>8} {:>8} {:>9} {:>9} {:>10}\n{:<34} {:>8} {:>8} {:>9} {:>9} {:>10}\n",
-        r.against,
-        "session",
-        "pos RMSE",
-        "pos max",
-        "vel RMSE",
-        "vel max",
-        "baseline",
-        "",
-        "(cm)",
-        "(cm)",
-        "(cm/s)",
-        "(cm/s)",
-        "pos (cm)"
-    );
-    for s in &r.sessions {
-        let name =
-            Path::new(&s.file).file_name().map_or(s.file.clone(), |n| n.to_string_lossy().into_owned());
-        out += &row(&name, &s.scores);
-        out.push('\n');
-    }
-    out += &row("MEAN", &r.mean);
-    out.push('\n');
-    if let Some(sim) = &r.sim {
-        out += &row("MEAN against /sim/truth", sim);
-        out.push('\n');
-    }
-    out
-}
+use crate::cli::EvalArgs;
 
 pub fn run_cmd(args: &EvalArgs) -> Result<()> {
     let model = load_model(&args.model)?;
     let files = expand(&args.files)?;
-    let report = evaluate(&model, &files, args.truth)?;
+    let report = evaluate(&model, &files, args.truth.into())?;
     if args.json {
         let mut v = serde_json::to_value(&report)?;
         v["model"] = json!(args.model);

@@ -3,7 +3,7 @@
 use std::io::Write;
 
 use anyhow::Result;
-use slidetrack_drivers::session::{ReadOptions, export_csv};
+use slidetrack_session::{ReadOptions, export_csv};
 
 use crate::cli::ExportArgs;
 

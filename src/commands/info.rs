@@ -2,7 +2,7 @@
 
 use anyhow::Result;
 use serde_json::json;
-use slidetrack_drivers::session::{ReadOptions, SessionInfo};
+use slidetrack_session::{ReadOptions, SessionInfo};
 
 use crate::cli::InfoArgs;
 
@@ -23,7 +23,7 @@ pub fn run(args: &InfoArgs) -> Result<()> {
     Ok(())
 }
 
-fn secs(t: Option<slidetrack_drivers::TimeNs>) -> Option<f64> {
+fn secs(t: Option<slidetrack_core::TimeNs>) -> Option<f64> {
     t.map(|t| t.as_secs_f64())
 }
 

@@ -7,6 +7,7 @@ mod calibrate;
 mod collect;
 mod decode;
 mod demo;
+#[cfg(all(feature = "devices", target_os = "linux"))]
 mod devices;
 pub mod eval;
 mod export;
@@ -17,7 +18,6 @@ mod plot;
 mod plot_ground_truth;
 pub mod replay;
 pub mod study;
-mod study_tables;
 pub mod track;
 pub mod train;
 pub mod vision;
@@ -49,9 +49,21 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Label(args) => label::run(&args, quiet),
         Command::Calibrate(args) => calibrate::run(&args, quiet),
         Command::Aruco(args) => aruco::run(&args),
+        #[cfg(all(feature = "devices", target_os = "linux"))]
         Command::Devices(args) => devices::run(&args),
+        #[cfg(not(all(feature = "devices", target_os = "linux")))]
+        Command::Devices(_) => Err(without_devices("devices")),
         Command::Decode(args) => decode::run(&args, quiet),
     }
+}
+
+/// The error of a command that needs the device backends in a build without them.
+#[cfg(not(all(feature = "devices", target_os = "linux")))]
+pub fn without_devices(what: &str) -> anyhow::Error {
+    anyhow::anyhow!(
+        "{what} needs the real devices' backends, and this slidetrack was built without them \
+         (the `devices` feature, Linux only)"
+    )
 }
 
 /// A flag that turns true on Ctrl-C (SIGINT) or SIGTERM, so that a running

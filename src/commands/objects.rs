@@ -1,7 +1,7 @@
 //! `slidetrack objects`: the built-in objects of the simulated rig.
 
 use anyhow::Result;
-use slidetrack_drivers::sim::{BUILTIN_OBJECTS, ObjectConfig};
+use slidetrack_sim::{BUILTIN_OBJECTS, ObjectConfig};
 
 pub fn run() -> Result<()> {
     println!(
@@ -23,8 +23,6 @@ pub fn run() -> Result<()> {
             o.description
         );
     }
-    println!(
-        "\nA path to an object .toml (same fields as drivers/objects/*.toml) works wherever a name does."
-    );
+    println!("\nA path to an object .toml (same fields as sim/objects/*.toml) works wherever a name does.");
     Ok(())
 }

@@ -1,14 +1,14 @@
 //! `slidetrack plot`: pictures of a session.
 
 use anyhow::{Context, Result};
-use slidetrack_drivers::session::{
+use slidetrack_core::{Finger, TimeNs};
+use slidetrack_experiment::plot::{PALETTE, Panel, Series, draw_stacked};
+use slidetrack_session::{
     ArucoDetection, GraspControl, ProtocolEvent, ReadOptions, SessionError, SimTruth, TactileZeroed,
     read_channel,
 };
-use slidetrack_drivers::{Finger, TimeNs};
 
 use crate::cli::{PlotArgs, PlotKind};
-use crate::plot::{PALETTE, Panel, Series, draw_stacked};
 
 pub fn run(args: &PlotArgs) -> Result<()> {
     let opts = ReadOptions { recover: args.recover };

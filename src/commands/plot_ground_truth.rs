@@ -8,13 +8,12 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use slidetrack_calibration::ground_truth::{params_from_record, smooth_ground_truth};
-use slidetrack_drivers::TimeNs;
-use slidetrack_drivers::session::{
+use slidetrack_core::TimeNs;
+use slidetrack_experiment::plot::{PALETTE, Panel, Series};
+use slidetrack_session::{
     ChannelMessage, GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding, ProtocolEvent,
     ReadOptions, SessionError, SessionInfo, SimTruth, read_channel,
 };
-
-use crate::plot::{PALETTE, Panel, Series};
 
 const GREY: plotters::style::RGBColor = plotters::style::RGBColor(110, 110, 110);
 

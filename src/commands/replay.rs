@@ -1,36 +1,13 @@
 //! `slidetrack replay`: run a dEKF model over a recorded session and write a
 //! copy of it with the model's input and estimates.
 
-use std::path::PathBuf;
-
 use anyhow::{Context, Result, bail};
-use clap::Args;
-use slidetrack_drivers::session::{
-    DekfEstimate, NewChannel, ReadOptions, TactileDerivative, rewrite_session,
-};
+use slidetrack_experiment::dataset::{TruthSource, load};
+use slidetrack_experiment::dekf_run::{CM, estimate_message, estimate_metadata, load_model, run};
+use slidetrack_experiment::plot::{PALETTE, Panel, Series, draw_stacked};
+use slidetrack_session::{DekfEstimate, NewChannel, ReadOptions, TactileDerivative, rewrite_session};
 
-use crate::dataset::{TruthSource, load};
-use crate::dekf_run::{CM, estimate_message, estimate_metadata, load_model, run};
-use crate::plot::{PALETTE, Panel, Series, draw_stacked};
-
-/// Arguments of `replay`.
-#[derive(Debug, Args, Clone)]
-pub struct ReplayArgs {
-    /// Session file (.mcap).
-    pub file: PathBuf,
-    /// Model file (.safetensors).
-    #[arg(long)]
-    pub model: PathBuf,
-    /// Output session: a copy of FILE with `/tactile/derivative` and `/estimate/dekf`.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Also plot estimates against the truth (Fig. 6.9).
-    #[arg(long)]
-    pub plot: Option<PathBuf>,
-    /// Replace OUT if it exists.
-    #[arg(long)]
-    pub overwrite: bool,
-}
+use crate::cli::ReplayArgs;
 
 pub fn run_cmd(args: &ReplayArgs) -> Result<()> {
     let model = load_model(&args.model)?;
@@ -71,7 +48,7 @@ pub fn run_cmd(args: &ReplayArgs) -> Result<()> {
 /// simulator's truth when present (Fig. 6.9).
 fn plot_replay(
     args: &ReplayArgs,
-    outputs: &[(slidetrack_drivers::TimeNs, slidetrack_estimators::dekf::DekfOutput)],
+    outputs: &[(slidetrack_core::TimeNs, slidetrack_estimators::dekf::DekfOutput)],
 ) -> Result<()> {
     let Some(out) = &args.plot else { return Ok(()) };
     let t0 = outputs.first().map_or(0.0, |(t, _)| t.as_secs_f64());

@@ -6,68 +6,25 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_calibration::ground_truth::default_params;
-use slidetrack_drivers::sim::ObjectConfig;
+use slidetrack_experiment::dekf_run::load_model;
+use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_experiment::tracking::{LiveStatus, LiveTrackers};
+use slidetrack_experiment::trial::{
+    ExtensionFactory, TrialSpec, build_rig, prepare_out_dir, record_trial_with,
+};
+use slidetrack_experiment::vision_inhand::{InHandVision, InHandVisionConfig};
+use slidetrack_sim::ObjectConfig;
 use slidetrack_vision::TrackerKind;
-use slidetrack_vision::inhand::{InHandVision, InHandVisionConfig};
 
-use crate::cli::{ExperimentArgs, RigKind};
-use crate::dekf_run::load_model;
-use crate::rig_config::RigConfig;
-use crate::tracking::{LiveStatus, LiveTrackers};
-use crate::trial::{ExtensionFactory, TrialSpec, build_rig, prepare_out_dir, record_trial_with};
-
-/// Arguments of `track`.
-#[derive(Debug, Args, Clone)]
-pub struct TrackArgs {
-    /// The experiment.
-    #[command(flatten)]
-    pub run: ExperimentArgs,
-    /// dEKF model file (.safetensors) from `slidetrack train`.
-    #[arg(long)]
-    pub model: PathBuf,
-    /// Trial number (the simulated rig's per-trial jitter derives from it).
-    #[arg(long, default_value_t = 0)]
-    pub trial: u32,
-    /// Session file to write (default: sessions/<object>-s<seed>-t<trial>-track.mcap).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Also run a vision tracker beside the dEKF on the simulated rig's
-    /// in-hand RGB-D scene, fed by an imitation of a slow network (5 fps,
-    /// 200 ms late): `/estimate/pose/<tracker>` and friends.
-    #[arg(long, value_enum)]
-    pub vision: Option<VisionArg>,
-    /// With `--vision`: also record the rendered colour, depth and masks
-    /// (about 1 MB per frame).
-    #[arg(long, requires = "vision")]
-    pub record_rgbd: bool,
-}
-
-/// A vision tracker of `--vision`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum VisionArg {
-    /// MaskUKF (thesis Chapter 4).
-    Maskukf,
-    /// ROFT (thesis Chapter 5).
-    Roft,
-}
-
-impl From<VisionArg> for TrackerKind {
-    fn from(v: VisionArg) -> TrackerKind {
-        match v {
-            VisionArg::Maskukf => TrackerKind::MaskUkf,
-            VisionArg::Roft => TrackerKind::Roft,
-        }
-    }
-}
+use crate::cli::{RigArg, TrackArgs};
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     if !(args.run.duration.is_finite() && args.run.duration > 0.0) {
         bail!("--duration must be a positive number of seconds, got {}", args.run.duration);
     }
-    if args.vision.is_some() && (args.run.rig == RigKind::Hw || args.run.no_camera) {
+    if args.vision.is_some() && (args.run.rig == RigArg::Hw || args.run.no_camera) {
         bail!(
             "--vision runs on the simulated rig's rendered RGB-D scene: it needs --rig sim and the camera \
              (live RGB-D from a real rig needs a segmentation and pose network; see `slidetrack vision track`)"
@@ -94,7 +51,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         overwrite: args.run.overwrite,
         path,
     };
-    let setup = build_rig(args.run.rig, &spec)?;
+    let setup = build_rig(args.run.rig.into(), &spec)?;
     let rate = setup.tactile_info.rate_hz;
     let expected = model.meta.tactile_rate_hz;
     if (rate - expected).abs() > 0.05 * expected {
@@ -133,14 +90,15 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let (s, d) = (status.clone(), display.clone());
     let extension: ExtensionFactory = Box::new(move |logger| {
         let marker = with_marker.then(default_params);
-        let mut trackers = LiveTrackers::new(logger, &model, &model_name, marker, s, d)?;
+        let show = Box::new(move |line: &str| d.set_message(line.to_string()));
+        let mut trackers = LiveTrackers::new(logger, &model, &model_name, marker, s, show)?;
         if let Some(v) = vision {
             trackers = trackers.with_vision(v.with_recording(logger.clone(), record_rgbd)?);
         }
         Ok(Box::new(trackers) as Box<_>)
     });
     let stop = super::stop_flag();
-    let mut progress = |_t: slidetrack_drivers::TimeNs| {};
+    let mut progress = |_t: slidetrack_core::TimeNs| {};
     let report = record_trial_with(setup, &spec, &stop, &mut progress, Some(extension))?;
     display.finish_and_clear();
 

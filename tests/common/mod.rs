@@ -51,8 +51,18 @@ pub fn collect(dir: &Path, object: &str, seed: u64, duration_s: f64, extra: &[&s
     dir.join(format!("{object}-s{seed}-t000.mcap"))
 }
 
-/// The Python interpreter that has the official `mcap` package
-/// (`SLIDETRACK_PYTHON`, set by `scripts/test`), or `python3`.
-pub fn python() -> String {
-    std::env::var("SLIDETRACK_PYTHON").unwrap_or_else(|_| "python3".into())
+/// The project's Python (`target/pyenv`, made by `scripts/setup.sh --test`,
+/// or `SLIDETRACK_PYTHON`), which has the official `mcap` package and NumPy.
+/// Never the system's `python3`: a test must not pass only because a
+/// package happens to be installed by hand.
+pub fn python() -> PathBuf {
+    let python = std::env::var_os("SLIDETRACK_PYTHON")
+        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/pyenv/bin/python"), PathBuf::from);
+    assert!(
+        python.exists(),
+        "{} does not exist: run `scripts/setup.sh --test` (or `scripts/test`), which makes the \
+         project's Python environment",
+        python.display()
+    );
+    python
 }

@@ -5,8 +5,8 @@
 //! 96.2 fps with GPU flow). Rendering and decoding are outside the timing.
 //! ROFT's flow covers the box of its mask with a 40 px margin (the only
 //! pixels it uses); the flow of the whole frame is timed for comparison.
-//! Last, the in-hand rig's whole vision step (rendering included) against
-//! the camera's 30 fps.
+//! (The in-hand rig's whole vision step is the `vision_inhand` benchmark of
+//! the experiment crate.)
 //!
 //! Only frames the tracker tracked are timed (ROFT's first frames, before
 //! the first delayed pose arrives, are run but not timed). After criterion's
@@ -22,9 +22,9 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use slidetrack_drivers::sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
+use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
 use slidetrack_vision::flow::FlowConfig;
-use slidetrack_vision::input::{RgbdSample, RgbdSource, SimRgbd, YcbDirectory, read_meta};
+use slidetrack_vision::input::{RgbdSample, RgbdSource, YcbDirectory, read_meta};
 use slidetrack_vision::sources::{
     Arrivals, Delayed, FrameTruth, MeasurementSource, SlowNetwork, SlowNetworkConfig,
 };
@@ -154,10 +154,12 @@ fn roft(c: &mut Criterion) {
     let sequence = FastSequence::new(config).unwrap();
     let model = ObjectModel::from_mesh("cracker_box", sequence.mesh().clone());
     let intrinsics = sequence.intrinsics().clone();
-    let mut source = SimRgbd::new(sequence);
     let mut network = SlowNetwork::new(SlowNetworkConfig::default());
     let mut frames = Vec::new();
-    while let Some(s) = source.next_frame().unwrap() {
+    for k in 0..sequence.len() {
+        let (frame, inside, truth) = sequence.frame(k);
+        let mask = slidetrack_vision::cloud::mask(frame.depth.width, frame.depth.height, &inside).unwrap();
+        let s = RgbdSample { frame, truth: Some(truth), truth_mask: Some(mask) };
         let (truth, mask) = (s.truth.unwrap(), s.truth_mask.clone().unwrap());
         let arrivals = network
             .on_frame(
@@ -187,52 +189,10 @@ fn roft(c: &mut Criterion) {
     report_median("ROFT, flow of the whole frame", &frames, &make_whole, 300, None);
 }
 
-/// The in-hand rig's vision step (`InHandVision::on_frame`: rendering the
-/// RGB-D frame, the imitated network and the tracker) against the camera's
-/// 30 Hz, the budget of `slidetrack track --vision` in real time.
-fn inhand() {
-    use slidetrack_drivers::TimeNs;
-    use slidetrack_drivers::sim::ObjectConfig;
-    use slidetrack_drivers::sim::camera::SimCameraConfig;
-    use slidetrack_vision::inhand::{InHandVision, InHandVisionConfig};
-
-    let object = ObjectConfig::load("box").unwrap();
-    for kind in [TrackerKind::MaskUkf, TrackerKind::Roft] {
-        let mut vision = InHandVision::new(
-            &InHandVisionConfig::new(kind, 1),
-            &SimCameraConfig::default(),
-            &object.geometry,
-            [0.10, 0.0, 0.0],
-            [0.0, 0.0, -1.0],
-        )
-        .unwrap();
-        let mut times: Vec<Duration> = (0..150u64)
-            .map(|k| {
-                let t = k as f64 / 30.0;
-                let travel = 0.02 * (1.0 - (t * 2.0).cos());
-                let start = now(Clock::ThreadCpu);
-                black_box(
-                    vision.on_frame(TimeNs((t * 1e9) as u64), k, travel, 0.04 * (t * 2.0).sin()).unwrap(),
-                );
-                now(Clock::ThreadCpu).saturating_sub(start)
-            })
-            .collect();
-        times.sort();
-        let median = times[times.len() / 2].as_secs_f64();
-        println!(
-            "in-hand {} (render + network + tracker): median {:.3} ms CPU = {:.0} fps (camera: 30 fps)",
-            kind.name(),
-            median * 1e3,
-            1.0 / median
-        );
-    }
-}
-
 fn one_core(c: &mut Criterion) {
     opencv::core::set_num_threads(1).unwrap();
     maskukf(c);
     roft(c);
-    inhand();
 }
 
 criterion_group!(benches, one_core);

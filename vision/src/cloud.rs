@@ -3,8 +3,7 @@
 //! masks and pinhole intrinsics.
 
 use nalgebra::Point3;
-use slidetrack_drivers::CameraIntrinsics;
-use slidetrack_drivers::sim::rgbd::DepthImage;
+use slidetrack_core::{CameraIntrinsics, DepthImage};
 use slidetrack_estimators::roft::{DepthMap, Mask, Pinhole};
 
 use crate::VisionError;

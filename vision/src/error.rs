@@ -2,10 +2,10 @@
 
 use std::path::PathBuf;
 
-use slidetrack_drivers::session::SessionError;
 use slidetrack_estimators::EstimatorError;
 use slidetrack_estimators::maskukf::{MaskUkfError, ModelError};
 use slidetrack_estimators::roft::RoftError;
+use slidetrack_session::SessionError;
 use thiserror::Error;
 
 /// Errors of the vision crate.
@@ -97,10 +97,7 @@ pub enum VisionError {
     Estimator(#[from] EstimatorError),
     /// A device failed.
     #[error(transparent)]
-    Device(#[from] slidetrack_drivers::DeviceError),
-    /// The simulated RGB-D camera could not be built.
-    #[error("simulated RGB-D camera: {0}")]
-    Sim(#[from] slidetrack_drivers::sim::rgbd::RgbdSimError),
+    Device(#[from] slidetrack_core::DeviceError),
 }
 
 /// Maps OpenCV results onto [`VisionError::OpenCv`] with a context.

@@ -1,10 +1,10 @@
 //! Evaluation of the trackers against ground truth: running a tracker over
 //! an input, the metrics of Sec. 3.4 over the tracked frames, and the ROFT
-//! variants of Table 5.6 on simulated fast sequences.
+//! variants of Table 5.6 on any RGB-D source with truth.
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
-use slidetrack_drivers::sim::rgbd::{FastSequence, FastSequenceConfig, ObjectTruth};
+use slidetrack_core::ObjectTruth;
 use slidetrack_estimators::maskukf::ObjectPoints;
 use slidetrack_estimators::metrics::{
     FrameErrors, FrameEvaluation, SequenceMetrics, frame_errors, summarize,
@@ -13,7 +13,7 @@ use slidetrack_estimators::orientation::PoseVelocity;
 use slidetrack_estimators::roft::RoftConfig;
 
 use crate::VisionError;
-use crate::input::{RgbdSample, RgbdSource, SimRgbd};
+use crate::input::{RgbdSample, RgbdSource};
 use crate::model::ObjectModel;
 use crate::online::{OnlineTracker, TrackedState, TrackerKind, TrackerSettings, build_tracker};
 use crate::sources::{Combined, FrameTruth, MeasurementSource, SlowNetwork, SlowNetworkConfig, TruthSource};
@@ -221,59 +221,31 @@ pub struct VariantResult {
     pub metrics: SequenceMetrics,
 }
 
-/// Runs `variant` on simulated fast sequences and scores all their frames
-/// together (as the "ALL" rows of the thesis tables). Each sequence's first
-/// `network.latency_s` of frames is left out: no variant has an estimate
-/// before the network's first result.
-pub fn evaluate_variant(
+/// The per-frame errors of `variant` on one sequence: `source` gives its
+/// frames with their truth, `model` is the object it shows. The first `skip`
+/// frames are left out (no variant has an estimate before the network's first
+/// result). `network` should be seeded per sequence.
+pub fn variant_errors(
     variant: Variant,
-    sequences: &[FastSequenceConfig],
+    source: &mut dyn RgbdSource,
+    model: &ObjectModel,
+    skip: usize,
     network: &SlowNetworkConfig,
     settings: &TrackerSettings,
-) -> Result<VariantResult, VisionError> {
-    let mut all_errors = Vec::new();
-    for config in sequences {
-        let sequence = FastSequence::new(config.clone())?;
-        let model = ObjectModel::from_mesh(config.object.name(), sequence.mesh().clone());
-        let skip = (network.latency_s * config.fps).ceil() as usize;
-        let intrinsics = sequence.intrinsics().clone();
-        let mut source = SimRgbd::new(sequence);
-        let network_config = SlowNetworkConfig { seed: network.seed ^ config.motion.seed, ..network.clone() };
-        let mut measurements = variant.measurements(&network_config);
-        let run = match variant {
-            Variant::Network | Variant::NetworkIdeal => {
-                track(&mut source, measurements.as_mut(), None, |_, _| {})?
-            }
-            _ => {
-                let s = TrackerSettings { roft: variant.roft_config(&settings.roft), ..settings.clone() };
-                let mut tracker = build_tracker(TrackerKind::Roft, &model, &intrinsics, &s)?;
-                track(&mut source, measurements.as_mut(), Some(tracker.as_mut()), |_, _| {})?
-            }
-        };
-        // Errors of each sequence against its own model, then pooled.
-        let scored = match variant {
-            Variant::Network | Variant::NetworkIdeal => Scored::Measurement,
-            _ => Scored::Tracker,
-        };
-        all_errors.extend(errors(&run, skip, scored, &*model.object_points()?));
-    }
-    Ok(VariantResult { variant, label: variant.label(), metrics: summarize(&all_errors) })
-}
-
-/// MaskUKF on a simulated sequence with the true masks of every frame,
-/// started at `start` (for example 5 cm and 10 degrees off the truth).
-pub fn maskukf_on_sequence(
-    config: &FastSequenceConfig,
-    start: Isometry3<f64>,
-    settings: &TrackerSettings,
-) -> Result<(Vec<TrackedFrame>, ObjectModel), VisionError> {
-    let sequence = FastSequence::new(config.clone())?;
-    let model = ObjectModel::from_mesh(config.object.name(), sequence.mesh().clone());
-    let intrinsics = sequence.intrinsics().clone();
-    let s = TrackerSettings { initial_pose: Some(start), ..settings.clone() };
-    let mut tracker = build_tracker(TrackerKind::MaskUkf, &model, &intrinsics, &s)?;
-    let mut source = SimRgbd::new(sequence);
-    let mut truth = TruthSource { masks: true, poses: false };
-    let frames = track(&mut source, &mut truth, Some(tracker.as_mut()), |_, _| {})?;
-    Ok((frames, model))
+) -> Result<Vec<FrameErrors>, VisionError> {
+    let intrinsics = source.intrinsics().clone();
+    let mut measurements = variant.measurements(network);
+    let run = match variant {
+        Variant::Network | Variant::NetworkIdeal => track(source, measurements.as_mut(), None, |_, _| {})?,
+        _ => {
+            let s = TrackerSettings { roft: variant.roft_config(&settings.roft), ..settings.clone() };
+            let mut tracker = build_tracker(TrackerKind::Roft, model, &intrinsics, &s)?;
+            track(source, measurements.as_mut(), Some(tracker.as_mut()), |_, _| {})?
+        }
+    };
+    let scored = match variant {
+        Variant::Network | Variant::NetworkIdeal => Scored::Measurement,
+        _ => Scored::Tracker,
+    };
+    Ok(errors(&run, skip, scored, &*model.object_points()?))
 }

@@ -7,7 +7,7 @@
 use opencv::core::{Mat, Rect, Vec2f, Vec3b};
 use opencv::prelude::*;
 use opencv::video::{self, DISOpticalFlow};
-use slidetrack_drivers::{Image, PixelFormat};
+use slidetrack_core::{Image, PixelFormat};
 use slidetrack_estimators::roft::{FlowField, PixelBox};
 
 use crate::VisionError;

@@ -6,8 +6,8 @@
 //! ```no_run
 //! use slidetrack_vision::{ObjectModel, TrackerKind, TrackerSettings, build_tracker};
 //! use slidetrack_vision::sources::{MeasurementSource, SlowNetwork, SlowNetworkConfig};
-//! # fn frames() -> Vec<slidetrack_drivers::sim::rgbd::RgbdFrame> { Vec::new() }
-//! # fn run(intrinsics: slidetrack_drivers::CameraIntrinsics) -> Result<(), slidetrack_vision::VisionError> {
+//! # fn frames() -> Vec<slidetrack_core::RgbdFrame> { Vec::new() }
+//! # fn run(intrinsics: slidetrack_core::CameraIntrinsics) -> Result<(), slidetrack_vision::VisionError> {
 //! let model = ObjectModel::load("mustard/points.xyz".as_ref(), 1.0)?;
 //! let mut tracker = build_tracker(TrackerKind::Roft, &model, &intrinsics, &TrackerSettings::default())?;
 //! let mut network = SlowNetwork::new(SlowNetworkConfig::default()); // or a FileSequence, SessionMeasurements...
@@ -24,7 +24,6 @@ pub mod cloud;
 mod error;
 pub mod eval;
 pub mod flow;
-pub mod inhand;
 pub mod input;
 pub mod model;
 pub mod online;

@@ -6,8 +6,7 @@
 use std::sync::Arc;
 
 use nalgebra::Isometry3;
-use slidetrack_drivers::sim::rgbd::RgbdFrame;
-use slidetrack_drivers::{CameraIntrinsics, TimeNs};
+use slidetrack_core::{CameraIntrinsics, RgbdFrame, TimeNs};
 use slidetrack_estimators::maskukf::{CloudInput, MaskUkf, MaskUkfConfig, MeasurementUsed, ObjectPoints};
 use slidetrack_estimators::orientation::PoseVelocity;
 use slidetrack_estimators::roft::{Mask, PoseUse, Roft, RoftConfig, RoftInput};

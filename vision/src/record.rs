@@ -4,16 +4,15 @@
 use std::collections::BTreeMap;
 
 use nalgebra::Isometry3;
-use slidetrack_drivers::session::vision_pose::{
+use slidetrack_core::{CameraIntrinsics, EncodedImage, ObjectTruth as SimObjectTruth, RgbdFrame, TimeNs};
+use slidetrack_estimators::roft::Mask;
+use slidetrack_session::vision_pose::{
     MaskUkfPose, MaskUkfTransform, MaskUkfVelocity, RoftPose, RoftTransform, RoftVelocity,
 };
-use slidetrack_drivers::session::{
+use slidetrack_session::{
     ChannelHandle, ChannelMessage, CompressedImage, FrameTransform, Logger, ObjectTruth, PoseInFrame,
     RawImage, RgbdCalibration, RgbdColor, RgbdDepth, RgbdMask, VelocityEstimate, VisionMask, VisionPose,
 };
-use slidetrack_drivers::sim::rgbd::{ObjectTruth as SimObjectTruth, RgbdFrame};
-use slidetrack_drivers::{CameraIntrinsics, EncodedImage, TimeNs};
-use slidetrack_estimators::roft::Mask;
 
 use crate::VisionError;
 use crate::online::{TrackedState, TrackerKind};
@@ -36,7 +35,7 @@ impl RgbdChannels {
     pub fn register(logger: &Logger, intrinsics: &CameraIntrinsics) -> Result<RgbdChannels, VisionError> {
         let none = BTreeMap::new;
         let calibration = logger.register::<RgbdCalibration>(none())?;
-        let message = RgbdCalibration(slidetrack_drivers::session::CameraCalibration::new(
+        let message = RgbdCalibration(slidetrack_session::CameraCalibration::new(
             TimeNs::ZERO,
             CAMERA_FRAME,
             intrinsics,

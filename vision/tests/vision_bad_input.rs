@@ -7,11 +7,11 @@
 #![allow(clippy::unwrap_used)] // test code: a failed unwrap is a failed test
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use slidetrack_drivers::CameraIntrinsics;
-use slidetrack_drivers::sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
+use slidetrack_core::CameraIntrinsics;
 use slidetrack_estimators::maskukf::MeasurementUsed;
 use slidetrack_estimators::metrics::position_error_m;
 use slidetrack_estimators::roft::{Mask, PoseUse};
+use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
 use slidetrack_vision::cloud::mask;
 use slidetrack_vision::sources::{Arrivals, Delayed};
 use slidetrack_vision::{ObjectModel, StepNote, TrackerKind, TrackerSettings, VisionError, build_tracker};

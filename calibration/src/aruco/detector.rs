@@ -3,7 +3,7 @@
 use opencv::aruco::{self, DetectorParametersTrait};
 use opencv::core::{Mat, MatTraitConst, Point2f, Ptr, Rect, Size, TermCriteria, ToInputArray, Vec3b, Vector};
 use opencv::imgproc;
-use slidetrack_drivers::{Image, PixelFormat};
+use slidetrack_core::{Image, PixelFormat};
 
 use super::{Dictionary, MarkerDetection, PixelRoi};
 use crate::error::{MarkerError, OpenCvContext};

@@ -1,7 +1,5 @@
-use slidetrack_drivers::sim::camera::MarkerPattern;
-use slidetrack_drivers::{Image, PixelFormat};
-
 use opencv::core::{MatTraitConst, MatTraitConstManual};
+use slidetrack_core::{Image, MarkerPattern, PixelFormat};
 
 use super::*;
 

@@ -11,7 +11,7 @@
 //! perimeter ignored, takes 0.19 to 0.20 ms with the same sub-pixel corners.
 //! The whole frame is searched again only when the marker is lost.
 
-use slidetrack_drivers::Image;
+use slidetrack_core::Image;
 
 use super::{Dictionary, MarkerDetection, MarkerDetector, PixelRoi};
 use crate::error::MarkerError;

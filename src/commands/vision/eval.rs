@@ -3,14 +3,15 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use slidetrack_drivers::sim::rgbd::{FastSequenceConfig, SimObjectKind};
 use slidetrack_estimators::metrics::SequenceMetrics;
-use slidetrack_vision::eval::{Scored, Variant, errors, evaluate_variant, maskukf_on_sequence, track};
+use slidetrack_experiment::vision_sim::{evaluate_variant, maskukf_on_sequence};
+use slidetrack_sim::rgbd::{FastSequenceConfig, SimObjectKind};
+use slidetrack_vision::eval::{Scored, Variant, errors, track};
 use slidetrack_vision::sources::SlowNetworkConfig;
 use slidetrack_vision::{TrackerSettings, build_tracker};
 
-use super::EvalArgs;
 use super::inputs::{InputOptions, Prepared, perturbed, prepare};
+use crate::cli::VisionEvalArgs as EvalArgs;
 
 /// One row of the results.
 #[derive(Debug, Serialize)]
@@ -80,8 +81,7 @@ fn simulated(args: &EvalArgs, quiet: bool) -> Result<Vec<Row>> {
                 c.motion.max_speed_mps = c.motion.max_speed_mps.min(0.15);
                 c.motion.max_angular_speed_dps = c.motion.max_angular_speed_dps.min(45.0);
             }
-            let first =
-                slidetrack_drivers::sim::rgbd::FastSequence::new(c.clone())?.truth(0).camera_from_object;
+            let first = slidetrack_sim::rgbd::FastSequence::new(c.clone())?.truth(0).camera_from_object;
             let (frames, model) = maskukf_on_sequence(&c, perturbed(&first), &settings)?;
             all.extend(errors(&frames, 0, Scored::Tracker, &*model.object_points()?));
         }

@@ -5,16 +5,16 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use slidetrack_drivers::CameraIntrinsics;
-use slidetrack_drivers::session::{ReadOptions, SessionInfo};
-use slidetrack_drivers::sim::rgbd::SimObjectKind;
+use slidetrack_core::CameraIntrinsics;
+use slidetrack_session::{ReadOptions, SessionInfo};
+use slidetrack_sim::rgbd::SimObjectKind;
 use slidetrack_vision::ObjectModel;
 use slidetrack_vision::input::{RgbdSample, RgbdSource, SessionRgbd, YCB_CLASSES, YcbDirectory};
 use slidetrack_vision::sources::{
     FileSequence, MeasurementSource, SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
 };
 
-use super::{InitArg, MeasurementsArg};
+use crate::cli::{InitArg, MeasurementsArg};
 
 /// Everything a tracking run needs.
 pub struct Prepared {

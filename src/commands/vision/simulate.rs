@@ -4,13 +4,13 @@ use std::time::SystemTime;
 
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use slidetrack_drivers::session::{Recorder, RecorderOptions, SessionMetadata};
-use slidetrack_drivers::sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
+use slidetrack_session::{Recorder, RecorderOptions, SessionMetadata};
+use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
 use slidetrack_vision::cloud::mask;
 use slidetrack_vision::record::RgbdChannels;
 use slidetrack_vision::sources::{FrameTruth, MeasurementSource, SlowNetwork, SlowNetworkConfig};
 
-use super::SimulateArgs;
+use crate::cli::VisionSimulateArgs as SimulateArgs;
 
 pub fn run(args: &SimulateArgs, quiet: bool) -> Result<()> {
     let kind = SimObjectKind::from_name(&args.object).with_context(|| {

@@ -6,14 +6,14 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use slidetrack_drivers::session::{Recorder, RecorderOptions};
 use slidetrack_estimators::metrics::SequenceMetrics;
+use slidetrack_session::{Recorder, RecorderOptions};
 use slidetrack_vision::eval::{Scored, TrackedFrame, score};
 use slidetrack_vision::record::EstimateChannels;
 use slidetrack_vision::{TrackerSettings, build_tracker};
 
-use super::TrackArgs;
 use super::inputs::{InputOptions, Prepared, prepare};
+use crate::cli::VisionTrackArgs as TrackArgs;
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let options = InputOptions {

@@ -7,8 +7,7 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
-use slidetrack_drivers::sim::rgbd::RgbdFrame;
-use slidetrack_drivers::{Camera, CameraIntrinsics, DeviceError, ErrorKind, Frame, TimeNs};
+use slidetrack_core::{Camera, CameraIntrinsics, DeviceError, ErrorKind, Frame, RgbdFrame, TimeNs};
 
 use super::{RgbdSample, RgbdSource, decode_color, decode_depth};
 use crate::VisionError;
@@ -134,7 +133,7 @@ mod tests {
     use opencv::core::{Mat, Scalar, Vector};
     use opencv::imgcodecs;
     use opencv::prelude::*;
-    use slidetrack_drivers::EncodedImage;
+    use slidetrack_core::EncodedImage;
 
     struct Scripted {
         frames: VecDeque<Frame>,

@@ -1,6 +1,5 @@
-//! RGB-D inputs: the simulated camera ([`SimRgbd`]), recorded sessions
-//! ([`SessionRgbd`]), YCB-Video-style directories of PNGs ([`YcbDirectory`])
-//! and live cameras, a colour camera paired with a Z16 depth camera
+//! RGB-D inputs: recorded sessions ([`SessionRgbd`]), YCB-Video-style
+//! directories of PNGs ([`YcbDirectory`]) and live cameras, a colour camera paired with a Z16 depth camera
 //! ([`CameraPair`], for example two V4L2 devices).
 
 mod camera_pair;
@@ -14,8 +13,9 @@ pub use ycb::{YCB_CLASSES, YcbDirectory, YcbMeta, read_meta};
 use opencv::core::{Mat, Vector};
 use opencv::imgcodecs;
 use opencv::prelude::*;
-use slidetrack_drivers::sim::rgbd::{DepthImage, FastSequence, ObjectTruth, RgbdFrame};
-use slidetrack_drivers::{CameraIntrinsics, EncodedImage, Image, PixelFormat};
+use slidetrack_core::{
+    CameraIntrinsics, DepthImage, EncodedImage, Image, ObjectTruth, PixelFormat, RgbdFrame,
+};
 use slidetrack_estimators::roft::Mask;
 
 use crate::VisionError;
@@ -47,44 +47,6 @@ pub trait RgbdSource {
     /// Number of frames, when known.
     fn len_hint(&self) -> Option<usize> {
         None
-    }
-}
-
-/// The simulated RGB-D camera looking at a fast object.
-pub struct SimRgbd {
-    sequence: FastSequence,
-    next: usize,
-}
-
-impl SimRgbd {
-    /// Frames of `sequence`, from the first.
-    pub fn new(sequence: FastSequence) -> SimRgbd {
-        SimRgbd { sequence, next: 0 }
-    }
-
-    /// The sequence.
-    pub fn sequence(&self) -> &FastSequence {
-        &self.sequence
-    }
-}
-
-impl RgbdSource for SimRgbd {
-    fn intrinsics(&self) -> &CameraIntrinsics {
-        self.sequence.intrinsics()
-    }
-
-    fn next_frame(&mut self) -> Result<Option<RgbdSample>, VisionError> {
-        if self.next >= self.sequence.len() {
-            return Ok(None);
-        }
-        let (frame, mask, truth) = self.sequence.frame(self.next);
-        self.next += 1;
-        let truth_mask = crate::cloud::mask(frame.depth.width, frame.depth.height, &mask)?;
-        Ok(Some(RgbdSample { frame, truth: Some(truth), truth_mask: Some(truth_mask) }))
-    }
-
-    fn len_hint(&self) -> Option<usize> {
-        Some(self.sequence.len())
     }
 }
 

@@ -5,12 +5,11 @@
 use std::iter::Peekable;
 use std::path::{Path, PathBuf};
 
-use slidetrack_drivers::session::{
+use slidetrack_core::{CameraIntrinsics, RgbdFrame, TimeNs};
+use slidetrack_session::{
     ChannelMessage, MessageReader, ObjectTruth, RawMessage, ReadOptions, RgbdCalibration, RgbdColor,
     RgbdDepth, RgbdMask, read_channel,
 };
-use slidetrack_drivers::sim::rgbd::RgbdFrame;
-use slidetrack_drivers::{CameraIntrinsics, TimeNs};
 
 use super::{RgbdSample, RgbdSource, decode_color};
 use crate::VisionError;
@@ -34,7 +33,7 @@ impl SessionRgbd {
             .first()
             .and_then(|(_, c)| c.0.intrinsics())
             .ok_or_else(|| bad("/rgbd/calibration holds no usable plumb_bob calibration"))?;
-        let info = slidetrack_drivers::session::SessionInfo::read(path, options)?;
+        let info = slidetrack_session::SessionInfo::read(path, options)?;
         let frames = info.channel(RgbdDepth::TOPIC).map_or(0, |c| c.message_count as usize);
         if frames == 0 {
             return Err(bad("no /rgbd/depth frames"));

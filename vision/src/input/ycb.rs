@@ -9,8 +9,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use opencv::imgcodecs;
 use opencv::prelude::*;
-use slidetrack_drivers::sim::rgbd::{ObjectTruth, RgbdFrame};
-use slidetrack_drivers::{CameraIntrinsics, TimeNs};
+use slidetrack_core::{CameraIntrinsics, ObjectTruth, RgbdFrame, TimeNs};
 
 use super::{RgbdSample, RgbdSource, bgr_mat_to_rgb, depth_mat};
 use crate::VisionError;

@@ -8,10 +8,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use nalgebra::{Isometry3, Point3};
-use slidetrack_drivers::CameraIntrinsics;
-use slidetrack_drivers::sim::rgbd::{Rasterizer, TriangleMesh};
+use slidetrack_core::CameraIntrinsics;
 use slidetrack_estimators::maskukf::ObjectPoints;
 use slidetrack_estimators::roft::DepthRenderer;
+use slidetrack_render::{Rasterizer, TriangleMesh};
 
 use crate::VisionError;
 

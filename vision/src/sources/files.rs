@@ -8,11 +8,9 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use opencv::imgcodecs;
 use opencv::prelude::*;
-use slidetrack_drivers::TimeNs;
-use slidetrack_drivers::session::{
-    ChannelMessage, MessageReader, RawMessage, ReadOptions, VisionMask, VisionPose,
-};
+use slidetrack_core::TimeNs;
 use slidetrack_estimators::roft::Mask;
+use slidetrack_session::{ChannelMessage, MessageReader, RawMessage, ReadOptions, VisionMask, VisionPose};
 
 use super::{Arrivals, Delayed, FrameTruth, MeasurementSource};
 use crate::VisionError;

@@ -19,7 +19,7 @@ pub use files::{FileSequence, SessionMeasurements};
 pub use network::{SlowNetwork, SlowNetworkConfig};
 
 use nalgebra::Isometry3;
-use slidetrack_drivers::TimeNs;
+use slidetrack_core::TimeNs;
 use slidetrack_estimators::roft::Mask;
 
 use crate::VisionError;

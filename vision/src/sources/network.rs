@@ -5,7 +5,7 @@
 //! occasional gross outliers) when it is done; then it takes the newest frame.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
-use slidetrack_drivers::TimeNs;
+use slidetrack_core::TimeNs;
 use slidetrack_estimators::roft::Mask;
 
 use super::{Arrivals, Delayed, FrameTruth, MeasurementSource};

@@ -1,0 +1,30 @@
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+
+mod camera;
+mod config;
+mod counters;
+mod error;
+mod hand;
+mod image;
+mod marker;
+mod phase;
+mod placement;
+pub mod rgbd;
+mod tactile;
+mod time;
+mod truth;
+
+pub use camera::{Camera, CameraIntrinsics, Frame};
+pub use config::{ConfigError, parse_toml};
+pub use counters::DecoderCounters;
+pub use error::{DeviceError, ErrorKind};
+pub use hand::{FingerVolts, HandActuator, saturate};
+pub use image::{EncodedImage, Image, JpegError, PixelFormat, encode_jpeg};
+pub use marker::{BadMarkerPattern, MarkerPattern};
+pub use phase::Phase;
+pub use placement::{CameraPlacement, PlacementError};
+pub use rgbd::{DepthImage, ObjectTruth, RgbdFrame};
+pub use tactile::{AXES, Finger, PerFinger, RawTaxel, TactileInfo, TactileSample, TactileSource, TaxelRef};
+pub use time::{Clock, SimClock, TimeNs, WallClock};
+pub use truth::{SLIDING_SPEED_MPS, SimTruth, TruthSource};

@@ -1,0 +1,202 @@
+//! The CAN backends on an in-memory bus, and on `vcan` when the machine has one.
+
+use std::collections::VecDeque;
+use std::sync::Mutex;
+
+use slidetrack_core::{HandActuator, WallClock};
+
+use super::*;
+use crate::can_hand::CanHand;
+use crate::can_protocol::XelaCanLayout;
+use crate::config::CanHandConfig;
+use crate::hand_can::{HandMessage, HandState};
+
+/// A bus in memory: records what is sent, serves queued frames, and can
+/// vanish (every call then fails with `ENODEV`).
+#[derive(Default)]
+struct MemoryBus {
+    sent: Mutex<Vec<CanFrame>>,
+    incoming: Mutex<VecDeque<CanFrame>>,
+    gone: std::sync::atomic::AtomicBool,
+}
+
+impl MemoryBus {
+    fn queue(&self, frames: impl IntoIterator<Item = CanFrame>) {
+        self.incoming.lock().unwrap().extend(frames);
+    }
+    fn sent(&self) -> Vec<CanFrame> {
+        self.sent.lock().unwrap().clone()
+    }
+    fn unplug(&self) {
+        self.gone.store(true, std::sync::atomic::Ordering::SeqCst);
+    }
+    fn check(&self) -> io::Result<()> {
+        if self.gone.load(std::sync::atomic::Ordering::SeqCst) {
+            return Err(io::Error::from_raw_os_error(nix::errno::Errno::ENODEV as i32));
+        }
+        Ok(())
+    }
+}
+
+impl CanBus for MemoryBus {
+    fn send(&self, frame: &CanFrame) -> io::Result<()> {
+        self.sent.lock().unwrap().push(*frame);
+        self.check()
+    }
+    fn recv(&self, timeout: Duration) -> io::Result<Option<CanFrame>> {
+        self.check()?;
+        if let Some(f) = self.incoming.lock().unwrap().pop_front() {
+            return Ok(Some(f));
+        }
+        std::thread::sleep(timeout.min(Duration::from_millis(2)));
+        Ok(None)
+    }
+    fn name(&self) -> &str {
+        "mem0"
+    }
+}
+
+fn tactile_cfg() -> CanTactileConfig {
+    CanTactileConfig {
+        taxels: 32,
+        taxels_per_module: 16,
+        fingers: PerFinger {
+            thumb: TaxelRef { module: 0, taxel: 2 },
+            index: TaxelRef { module: 1, taxel: 0 },
+            middle: TaxelRef { module: 1, taxel: 9 },
+        },
+        timeout_ms: 30,
+        startup_timeout_ms: 30,
+        ..CanTactileConfig::default()
+    }
+}
+
+fn scan_frames(l: &XelaCanLayout, scan: u16, invalid: Option<u16>) -> Vec<CanFrame> {
+    (0..l.taxels).map(|t| l.taxel_frame(t, [scan, t, 5], Some(t) != invalid)).collect()
+}
+
+#[test]
+fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
+    let bus = Arc::new(MemoryBus::default());
+    let cfg = tactile_cfg();
+    let l = cfg.layout();
+    for s in 0..3 {
+        bus.queue(scan_frames(&l, s, if s == 1 { Some(25) } else { None }));
+    }
+    let mut tactile = CanTactile::with_bus(bus.clone(), &cfg, Arc::new(WallClock::start())).unwrap();
+    assert_eq!(bus.sent(), vec![l.start_command()]);
+    let a = tactile.read().unwrap();
+    assert_eq!((a.sequence, a.raw), (0, [[0, 2, 5], [0, 16, 5], [0, 25, 5]]));
+    // Scan 1's middle taxel (board taxel 25) was invalid: dropped, counted.
+    let b = tactile.read().unwrap();
+    assert_eq!((b.sequence, b.raw[0]), (2, [2, 2, 5]));
+    let c = tactile.counters().unwrap();
+    assert_eq!((c.frames, c.invalid_samples, c.incomplete_scans), (96, 1, 1));
+    assert_eq!(tactile.info().taxels, Some(cfg.fingers));
+    let e = tactile.read().unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Timeout);
+    assert!(e.detail.contains("no complete scan"), "{e}");
+    bus.unplug();
+    assert_eq!(tactile.read().unwrap_err().kind, ErrorKind::Disconnected);
+    assert_eq!(tactile.read().unwrap_err().kind, ErrorKind::Disconnected, "it sticks");
+}
+
+#[test]
+fn a_silent_board_times_out_with_the_ids_it_waited_for() {
+    let bus = Arc::new(MemoryBus::default());
+    let mut tactile = CanTactile::with_bus(bus, &tactile_cfg(), Arc::new(WallClock::start())).unwrap();
+    let e = tactile.read().unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Timeout);
+    assert!(e.detail.contains("0x710..=0x72F"), "{e}");
+}
+
+fn hand_cfg() -> CanHandConfig {
+    CanHandConfig { heartbeat_ms: 5, max_volts: 4.0, ..CanHandConfig::default() }
+}
+
+fn decode_all(bus: &MemoryBus) -> Vec<HandMessage> {
+    let ids = hand_cfg().ids();
+    bus.sent().iter().filter_map(|f| ids.decode(f).unwrap()).collect()
+}
+
+#[test]
+fn the_hand_gets_saturated_set_points_heartbeats_and_a_release_on_drop() {
+    let bus = Arc::new(MemoryBus::default());
+    let mut hand = CanHand::with_bus(bus.clone(), &hand_cfg()).unwrap();
+    hand.command([1.0, -9.0, f64::NAN]).unwrap();
+    std::thread::sleep(Duration::from_millis(40));
+    hand.command([0.5, 0.5, 0.5]).unwrap();
+    drop(hand);
+    let messages = decode_all(&bus);
+    let setpoints: Vec<_> = messages.iter().filter(|m| matches!(m, HandMessage::Setpoint { .. })).collect();
+    assert_eq!(
+        setpoints,
+        [
+            &HandMessage::Setpoint { counter: 0, volts: [1.0, -4.0, 0.0] },
+            &HandMessage::Setpoint { counter: 1, volts: [0.5, 0.5, 0.5] },
+        ]
+    );
+    let beats = messages.iter().filter(|m| matches!(m, HandMessage::Heartbeat { .. })).count();
+    assert!(beats >= 4, "{beats} heartbeats in 40 ms at 5 ms");
+    assert!(
+        messages.iter().any(|m| matches!(m, HandMessage::Heartbeat { state: HandState::Commanding, .. }))
+    );
+    assert_eq!(messages.last(), Some(&HandMessage::Release), "released on drop, heartbeat stopped");
+}
+
+#[test]
+fn a_vanished_bus_fails_the_command_and_still_tries_to_release() {
+    let bus = Arc::new(MemoryBus::default());
+    let mut hand = CanHand::with_bus(bus.clone(), &hand_cfg()).unwrap();
+    hand.command([1.0; 3]).unwrap();
+    bus.unplug();
+    let e = hand.command([2.0; 3]).unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Disconnected, "{e}");
+    assert!(bus.sent().iter().any(|f| f.id == 0x302), "a release was sent after the failure");
+    assert_eq!(hand.command([0.0; 3]).unwrap_err().kind, ErrorKind::Disconnected);
+    assert!(hand.release().is_err(), "the release is attempted and its failure reported");
+}
+
+/// A `vcan` interface to test on: `SLIDETRACK_VCAN`, or the first `vcan*` present.
+fn vcan() -> Option<String> {
+    if let Ok(name) = std::env::var("SLIDETRACK_VCAN") {
+        return Some(name);
+    }
+    crate::devices::list_can_interfaces(std::path::Path::new("/sys/class/net"))
+        .into_iter()
+        .find(|c| c.name.starts_with("vcan") && c.state != "down")
+        .map(|c| c.name)
+}
+
+#[test]
+fn the_tactile_board_and_the_hand_work_on_vcan() {
+    let Some(name) = vcan() else {
+        eprintln!(
+            "skipping the vcan test: no vcan interface (create one with `sudo ip link add dev vcan0 type vcan \
+             && sudo ip link set up vcan0`, or name it in SLIDETRACK_VCAN)"
+        );
+        return;
+    };
+    let board = SocketCanBus::open(&name).unwrap();
+    let cfg = CanTactileConfig { interface: name.clone(), ..tactile_cfg() };
+    let mut tactile = CanTactile::open(&cfg, Arc::new(WallClock::start())).unwrap();
+    // The board's side: wait for the start command, then stream three scans.
+    let start = board.recv(Duration::from_secs(1)).unwrap().expect("the start command");
+    assert_eq!(start, cfg.layout().start_command());
+    for s in 0..3 {
+        for f in scan_frames(&cfg.layout(), s, None) {
+            board.send(&f).unwrap();
+        }
+    }
+    for s in 0..3u16 {
+        assert_eq!(tactile.read().unwrap().raw[0], [s, 2, 5]);
+    }
+    let mut hand = CanHand::open(&CanHandConfig { interface: name, ..hand_cfg() }).unwrap();
+    hand.command([1.0; 3]).unwrap();
+    let ids = hand_cfg().ids();
+    let got = (0..50).find_map(|_| {
+        let f = board.recv(Duration::from_millis(100)).ok()??;
+        matches!(ids.decode(&f), Ok(Some(HandMessage::Setpoint { .. }))).then_some(f)
+    });
+    assert!(got.is_some(), "the set-point crossed the bus");
+}

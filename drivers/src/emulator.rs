@@ -1,0 +1,236 @@
+//! A serial tactile device made of the simulated rig: it streams a
+//! [`TactileSource`]'s scans as frames of the serial format into a
+//! pseudo-terminal, whose other end the serial backend opens like a real
+//! device. Faults (corrupt frames, garbage, unplugging) can be injected.
+
+use std::io::Write;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use serialport::{SerialPort, TTYPort};
+use slidetrack_core::{
+    Clock, DecoderCounters, DeviceError, ErrorKind, Finger, PerFinger, RawTaxel, TactileInfo, TactileSample,
+    TactileSource, TaxelRef,
+};
+
+use crate::config::{EmulatorConfig, SerialTactileConfig};
+use crate::serial::SerialTactile;
+use crate::serial_protocol::{FrameEncodeError, MAX_TAXELS, ModuleFrame, SYNC};
+
+/// Garbage written before a frame when asked to: contains a false sync.
+const GARBAGE: [u8; 7] = [0x00, SYNC[0], SYNC[1], 0xFF, 0x13, SYNC[0], 0x42];
+
+/// A pseudo-terminal waiting for its device side to start streaming.
+pub struct EmulatedPort {
+    master: TTYPort,
+    slave: TTYPort,
+    path: String,
+}
+
+impl EmulatedPort {
+    /// Creates the pseudo-terminal pair; the device path is [`EmulatedPort::path`].
+    pub fn open() -> Result<EmulatedPort, DeviceError> {
+        let (master, slave) = TTYPort::pair().map_err(|e| {
+            DeviceError::new(
+                ErrorKind::Other,
+                "serial emulator",
+                format!("cannot create a pseudo-terminal: {e}"),
+            )
+        })?;
+        let path = slave.name().ok_or_else(|| {
+            DeviceError::new(ErrorKind::Other, "serial emulator", "the pseudo-terminal has no device path")
+        })?;
+        Ok(EmulatedPort { master, slave, path })
+    }
+
+    /// The path of the device side (`/dev/pts/N`), to open as a serial port.
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// Starts streaming `source`'s scans on a thread named `serial-emulator`:
+    /// one frame per module the `fingers` map names, `taxels_per_module`
+    /// taxels each (the mapped taxel carries the finger's values, the others
+    /// fixed filler values), the source's sequence counter as scan counter.
+    pub fn stream(
+        self,
+        source: Box<dyn TactileSource>,
+        fingers: PerFinger<TaxelRef>,
+        taxels_per_module: u16,
+        faults: EmulatorConfig,
+    ) -> Result<SerialEmulator, DeviceError> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let path = self.path.clone();
+        let worker = Worker {
+            port: self,
+            source,
+            fingers: fingers.into_array(),
+            taxels_per_module: usize::from(taxels_per_module).clamp(1, MAX_TAXELS),
+            faults,
+            stop: Arc::clone(&stop),
+        };
+        let thread =
+            std::thread::Builder::new().name("serial-emulator".into()).spawn(move || worker.run()).map_err(
+                |e| DeviceError::new(ErrorKind::Other, &path, format!("cannot start the emulator: {e}")),
+            )?;
+        Ok(SerialEmulator { path, stop, thread: Some(thread) })
+    }
+}
+
+/// The running emulator; dropping it stops the stream and closes the terminal.
+pub struct SerialEmulator {
+    path: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl SerialEmulator {
+    /// The device path the serial backend opened.
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+}
+
+impl Drop for SerialEmulator {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take()
+            && t.join().is_err()
+        {
+            tracing::warn!("{}: the serial emulator thread panicked", self.path);
+        }
+    }
+}
+
+/// The serial backend reading an emulator: a [`SerialTactile`] on the
+/// device side of a pseudo-terminal fed by the simulated rig. Dropping it
+/// closes the port, then stops the emulator.
+pub struct EmulatedSerialTactile {
+    tactile: SerialTactile,
+    _emulator: SerialEmulator,
+}
+
+impl EmulatedSerialTactile {
+    /// Creates the pseudo-terminal, opens its device side with the serial
+    /// backend (`cfg` as for a real port, its `port` ignored), then starts
+    /// streaming `source` into it, with `cfg.emulator`'s faults.
+    pub fn start(
+        source: Box<dyn TactileSource>,
+        cfg: &SerialTactileConfig,
+        rate_hz: f64,
+        clock: Arc<dyn Clock>,
+    ) -> Result<EmulatedSerialTactile, DeviceError> {
+        let port = EmulatedPort::open()?;
+        let tactile = SerialTactile::open(port.path(), cfg, rate_hz, clock)?;
+        let emulator = port.stream(source, cfg.fingers, cfg.taxels_per_module, cfg.emulator.clone())?;
+        Ok(EmulatedSerialTactile { tactile, _emulator: emulator })
+    }
+}
+
+impl TactileSource for EmulatedSerialTactile {
+    /// # Contract
+    /// As [`SerialTactile`]'s: the bytes come through a real tty.
+    fn read(&mut self) -> Result<TactileSample, DeviceError> {
+        self.tactile.read()
+    }
+
+    fn info(&self) -> TactileInfo {
+        self.tactile.info()
+    }
+
+    fn counters(&self) -> Option<DecoderCounters> {
+        self.tactile.counters()
+    }
+}
+
+struct Worker {
+    port: EmulatedPort,
+    source: Box<dyn TactileSource>,
+    fingers: [TaxelRef; 3],
+    taxels_per_module: usize,
+    faults: EmulatorConfig,
+    stop: Arc<AtomicBool>,
+}
+
+impl Worker {
+    fn run(mut self) {
+        let mut modules: Vec<u32> = self.fingers.iter().map(|r| r.module).collect();
+        modules.sort_unstable();
+        modules.dedup();
+        let unplug_after = self.faults.unplug_after_s.map(Duration::from_secs_f64);
+        let mut first_scan: Option<Instant> = None;
+        let mut frames = 0u64;
+        let mut bytes = Vec::new();
+        // Writes must not block forever if nobody reads the other end.
+        if let Err(e) = self.port.master.set_timeout(Duration::from_millis(500)) {
+            tracing::warn!("serial emulator: {e}");
+        }
+        while !self.stop.load(Ordering::SeqCst) {
+            if let (Some(start), Some(after)) = (first_scan, unplug_after)
+                && start.elapsed() >= after
+            {
+                tracing::info!("serial emulator: unplugging {}", self.port.path);
+                return; // dropping the pseudo-terminal hangs up the device side
+            }
+            let sample = match self.source.read() {
+                Ok(s) => s,
+                Err(e) => {
+                    tracing::warn!("serial emulator: the simulated source failed: {e}");
+                    return;
+                }
+            };
+            first_scan.get_or_insert_with(Instant::now);
+            bytes.clear();
+            for &module in &modules {
+                frames += 1;
+                let f = &self.faults;
+                if f.garbage_every_frames > 0 && frames.is_multiple_of(u64::from(f.garbage_every_frames)) {
+                    bytes.extend_from_slice(&GARBAGE);
+                }
+                let start = bytes.len();
+                match self.module_frame(module, &sample) {
+                    Ok(frame) => frame.encode_into(&mut bytes),
+                    Err(e) => {
+                        tracing::warn!("serial emulator: {e}");
+                        return;
+                    }
+                }
+                if f.corrupt_every_frames > 0 && frames.is_multiple_of(u64::from(f.corrupt_every_frames)) {
+                    bytes[start + 9] ^= 0x04; // a payload bit
+                }
+            }
+            if let Err(e) = self.port.master.write_all(&bytes) {
+                if !self.stop.load(Ordering::SeqCst) {
+                    tracing::warn!("serial emulator: writing to {} failed: {e}", self.port.path);
+                }
+                return;
+            }
+        }
+        // Keep the device side open until here so that the reader never
+        // sees a hang-up before the emulator stops.
+        drop(self.port.slave);
+    }
+
+    fn module_frame(&self, module: u32, sample: &TactileSample) -> Result<ModuleFrame, FrameEncodeError> {
+        let mut taxels: Vec<RawTaxel> = (0..self.taxels_per_module)
+            .map(|t| {
+                let filler = 1000 * (module as u16 % 60) + 10 * t as u16;
+                [filler, filler + 1, filler + 2]
+            })
+            .collect();
+        for f in Finger::ALL {
+            let r = self.fingers[f.index()];
+            if r.module == module
+                && let Some(slot) = taxels.get_mut(r.taxel as usize)
+            {
+                *slot = sample.raw[f.index()];
+            }
+        }
+        ModuleFrame::new(module as u8, sample.sequence as u16, &taxels)
+    }
+}
+
+#[cfg(test)]
+mod tests;

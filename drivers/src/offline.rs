@@ -1,0 +1,266 @@
+//! Captured traffic turned into tactile samples, for `slidetrack decode`:
+//! can-utils `candump -l` logs and raw serial byte captures. Both read their
+//! input as a stream with bounded memory.
+
+use std::io::{BufRead, BufReader, Read};
+
+use slidetrack_core::{DecoderCounters, RawTaxel, TactileSample, TimeNs};
+
+use crate::can_protocol::{CanFrame, CanScanAssembler};
+use crate::candump::{self, CandumpFrame, CandumpRecord};
+use crate::config::{CanTactileConfig, SerialTactileConfig};
+use crate::scan::{ModuleScanAssembler, SequenceUnwrapper};
+use crate::serial_protocol::{SerialDecoder, SerialEvent};
+
+/// Decodes a `candump -l` log (`(1700000000.123456) can0 710#00123456789ABC`)
+/// into the scans of one uSkin board.
+///
+/// # Contract
+/// - Sample times are the log's timestamps relative to its first frame
+///   (session clock starting at 0), made non-decreasing.
+/// - Lines that do not parse are counted ([`CanLogDecoder::bad_lines`]) and
+///   skipped; frames of other ids and interfaces are ignored.
+pub struct CanLogDecoder<R: Read> {
+    reader: BufReader<R>,
+    line: String,
+    interface: Option<String>,
+    assembler: CanScanAssembler,
+    board_taxels: [usize; 3],
+    first_us: Option<u64>,
+    last_t: TimeNs,
+    lines: u64,
+    bad_lines: u64,
+    first_error: Option<(u64, String)>,
+}
+
+impl<R: Read> CanLogDecoder<R> {
+    /// A decoder of the log in `input` for the board of `cfg`; frames of
+    /// interfaces other than `interface` are skipped when it is given.
+    pub fn new(input: R, cfg: &CanTactileConfig, interface: Option<String>) -> CanLogDecoder<R> {
+        CanLogDecoder {
+            reader: BufReader::new(input),
+            line: String::new(),
+            interface,
+            assembler: CanScanAssembler::new(cfg.layout(), CanScanAssembler::span_for_rate(cfg.rate_hz)),
+            board_taxels: cfg.board_taxels(),
+            first_us: None,
+            last_t: TimeNs::ZERO,
+            lines: 0,
+            bad_lines: 0,
+            first_error: None,
+        }
+    }
+
+    /// The decoder counters so far.
+    pub fn counters(&self) -> DecoderCounters {
+        self.assembler.counters()
+    }
+
+    /// Lines read so far.
+    pub fn lines(&self) -> u64 {
+        self.lines
+    }
+
+    /// Lines that did not parse as candump records.
+    pub fn bad_lines(&self) -> u64 {
+        self.bad_lines
+    }
+
+    /// The first line that did not parse: `(line number, why)`.
+    pub fn first_error(&self) -> Option<&(u64, String)> {
+        self.first_error.as_ref()
+    }
+
+    fn frame(&mut self, record: CandumpRecord) -> Option<(TimeNs, CanFrame)> {
+        if self.interface.as_ref().is_some_and(|i| *i != record.interface) {
+            return None;
+        }
+        let CandumpFrame::Data { id, extended, data } = record.frame else { return None };
+        let frame = CanFrame::new(id, extended, &data)?;
+        let first = *self.first_us.get_or_insert(record.t_us);
+        let t = TimeNs(record.t_us.saturating_sub(first).saturating_mul(1000)).max(self.last_t);
+        self.last_t = t;
+        Some((t, frame))
+    }
+}
+
+impl<R: Read> Iterator for CanLogDecoder<R> {
+    type Item = TactileSample;
+
+    fn next(&mut self) -> Option<TactileSample> {
+        loop {
+            self.line.clear();
+            match self.reader.read_line(&mut self.line) {
+                Ok(0) => return None,
+                Ok(_) => self.lines += 1,
+                Err(e) if e.kind() == std::io::ErrorKind::InvalidData => {
+                    // Not UTF-8 (the line is consumed): not a candump record.
+                    self.lines += 1;
+                    self.bad_lines += 1;
+                    self.first_error.get_or_insert((self.lines, e.to_string()));
+                    continue;
+                }
+                Err(e) => {
+                    self.lines += 1;
+                    self.first_error.get_or_insert((self.lines, e.to_string()));
+                    return None;
+                }
+            }
+            let text = self.line.trim_end_matches(['\n', '\r']);
+            if text.trim().is_empty() {
+                continue;
+            }
+            let record = match candump::parse_line(text) {
+                Ok(r) => r,
+                Err(e) => {
+                    self.bad_lines += 1;
+                    self.first_error.get_or_insert((self.lines, e.to_string()));
+                    continue;
+                }
+            };
+            let Some((t, frame)) = self.frame(record) else { continue };
+            let Some(scan) = self.assembler.push(t, &frame) else { continue };
+            match pick(&scan.taxels, self.board_taxels) {
+                Some(raw) => return Some(TactileSample { t: scan.t, sequence: scan.sequence, raw }),
+                None => self.assembler.count_unusable_scan(),
+            }
+        }
+    }
+}
+
+/// One line of a `candump -l` log for `frame` received at `t_us` (µs since
+/// the Unix epoch) on `interface`, without the newline.
+pub fn candump_line(t_us: u64, interface: &str, frame: &CanFrame) -> String {
+    candump::format_line(t_us, interface, frame.id, frame.extended, frame.data())
+}
+
+fn pick(taxels: &[Option<RawTaxel>], board_taxels: [usize; 3]) -> Option<[RawTaxel; 3]> {
+    let [a, b, c] = board_taxels.map(|t| taxels.get(t).copied().flatten());
+    Some([a?, b?, c?])
+}
+
+/// Decodes a raw serial capture (the bytes as the port delivered them).
+///
+/// # Contract
+/// - Sample times come from the board's scan counter at `rate_hz`,
+///   relative to the first scan (the bytes carry no time of their own), made
+///   non-decreasing.
+/// - Reads the input in 64 KiB pieces; memory stays bounded whatever its size.
+pub struct SerialCaptureDecoder<R: Read> {
+    input: R,
+    decoder: SerialDecoder,
+    scans: CaptureScans,
+    buf: Box<[u8]>,
+    bytes: u64,
+    finished: bool,
+    error: Option<std::io::Error>,
+}
+
+/// Module frames of a capture turned into timed scans.
+struct CaptureScans {
+    assembler: ModuleScanAssembler,
+    unwrapper: SequenceUnwrapper,
+    period_ns: f64,
+    first: Option<u64>,
+    last_t: TimeNs,
+    ready: std::collections::VecDeque<TactileSample>,
+}
+
+impl CaptureScans {
+    fn on_event(&mut self, event: SerialEvent) {
+        if let SerialEvent::Frame(frame) = event
+            && let Some((sequence, raw)) = self.assembler.push(&frame)
+        {
+            let sequence = self.unwrapper.unwrap(sequence);
+            let first = *self.first.get_or_insert(sequence);
+            // A scan counter that steps back (reordered frames) does not take time back.
+            let t = TimeNs((sequence.saturating_sub(first) as f64 * self.period_ns).round() as u64)
+                .max(self.last_t);
+            self.last_t = t;
+            self.ready.push_back(TactileSample { t, sequence, raw });
+        }
+    }
+}
+
+impl<R: Read> SerialCaptureDecoder<R> {
+    /// A decoder of the capture in `input` for the modules of `cfg`, timed at `rate_hz`.
+    pub fn new(input: R, cfg: &SerialTactileConfig, rate_hz: f64) -> SerialCaptureDecoder<R> {
+        SerialCaptureDecoder {
+            input,
+            decoder: SerialDecoder::new(),
+            scans: CaptureScans {
+                assembler: ModuleScanAssembler::new(&cfg.fingers),
+                unwrapper: SequenceUnwrapper::default(),
+                period_ns: 1e9 / rate_hz.max(1e-6),
+                first: None,
+                last_t: TimeNs::ZERO,
+                ready: Default::default(),
+            },
+            buf: vec![0; 64 << 10].into_boxed_slice(),
+            bytes: 0,
+            finished: false,
+            error: None,
+        }
+    }
+
+    /// The decoder counters so far.
+    pub fn counters(&self) -> DecoderCounters {
+        DecoderCounters {
+            incomplete_scans: self.scans.assembler.incomplete_scans(),
+            ..self.decoder.counters()
+        }
+    }
+
+    /// Bytes read so far.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// Bytes at the end that did not complete a frame (once the input is exhausted).
+    pub fn trailing_bytes(&self) -> usize {
+        self.decoder.buffered()
+    }
+
+    /// The read error that ended the input early, if any.
+    pub fn error(&self) -> Option<&std::io::Error> {
+        self.error.as_ref()
+    }
+}
+
+impl<R: Read> Iterator for SerialCaptureDecoder<R> {
+    type Item = TactileSample;
+
+    fn next(&mut self) -> Option<TactileSample> {
+        loop {
+            if let Some(s) = self.scans.ready.pop_front() {
+                return Some(s);
+            }
+            if self.error.is_some() || self.finished {
+                return None;
+            }
+            let n = match self.input.read(&mut self.buf) {
+                Ok(0) => {
+                    // The end of the capture: frames a cut one was hiding come out now.
+                    self.finished = true;
+                    self.decoder.finish();
+                    while let Some(event) = self.decoder.next_event() {
+                        self.scans.on_event(event);
+                    }
+                    continue;
+                }
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    self.error = Some(e);
+                    return None;
+                }
+            };
+            self.bytes += n as u64;
+            let scans = &mut self.scans;
+            self.decoder.feed(&self.buf[..n], |event| scans.on_event(event));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,205 @@
+//! Offline decoding of candump logs and serial captures, including damaged ones.
+
+use slidetrack_core::{PerFinger, TaxelRef};
+
+use super::*;
+use crate::can_protocol::XelaCanLayout;
+use crate::serial_protocol::ModuleFrame;
+
+fn can_cfg() -> CanTactileConfig {
+    CanTactileConfig {
+        taxels: 16,
+        taxels_per_module: 16,
+        fingers: PerFinger {
+            thumb: TaxelRef { module: 0, taxel: 1 },
+            index: TaxelRef { module: 0, taxel: 7 },
+            middle: TaxelRef { module: 0, taxel: 15 },
+        },
+        ..CanTactileConfig::default()
+    }
+}
+
+fn value(scan: u64, taxel: u16) -> RawTaxel {
+    [10_000 + scan as u16, 20_000 + taxel, 30_000 + (scan as u16) * 2]
+}
+
+/// `scans` scans at 100 Hz, frames 100 µs apart, from t = 1700000000 s.
+fn log_lines(scans: u64) -> Vec<String> {
+    let l = XelaCanLayout { taxels: 16, ..XelaCanLayout::default() };
+    let mut lines = vec![candump_line(1_700_000_000_000_000, "can0", &l.start_command())];
+    for s in 0..scans {
+        for t in 0..16u16 {
+            let t_us = 1_700_000_000_000_000 + 1000 + s * 10_000 + u64::from(t) * 100;
+            lines.push(candump_line(t_us, "can0", &l.taxel_frame(t, value(s, t), true)));
+        }
+    }
+    lines
+}
+
+fn decode_log(lines: &[String]) -> (Vec<TactileSample>, DecoderCounters, u64) {
+    let text = lines.join("\n") + "\n";
+    let mut d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None);
+    let samples: Vec<_> = d.by_ref().collect();
+    (samples, d.counters(), d.bad_lines())
+}
+
+#[test]
+fn a_candump_line_has_the_can_utils_format() {
+    let f = CanFrame::standard(0x710, &[0, 0x12, 0x34, 0x56, 0x78, 0x9A, 0xBC, 0]).unwrap();
+    assert_eq!(
+        candump_line(1_700_000_000_123_456, "can0", &f),
+        "(1700000000.123456) can0 710#00123456789ABC00"
+    );
+    let e = CanFrame::new(0x18FF_0001, true, &[]).unwrap();
+    assert_eq!(candump_line(5, "vcan0", &e), "(0.000005) vcan0 18FF0001#");
+}
+
+#[test]
+fn a_clean_log_gives_every_scan_with_log_times() {
+    let (samples, counters, bad) = decode_log(&log_lines(20));
+    assert_eq!(samples.len(), 20);
+    assert_eq!(bad, 0);
+    for (s, sample) in samples.iter().enumerate() {
+        let s = s as u64;
+        assert_eq!(sample.raw, [value(s, 1), value(s, 7), value(s, 15)]);
+        assert_eq!(sample.sequence, s);
+        // Relative to the first record (the start command), at the scan's last frame.
+        assert_eq!(sample.t, TimeNs((1000 + s * 10_000 + 1500) * 1000));
+    }
+    assert_eq!(counters.frames, 320);
+    assert_eq!(counters.incomplete_scans, 0);
+}
+
+#[test]
+fn a_damaged_log_loses_only_the_damaged_scans() {
+    let mut lines = log_lines(10);
+    lines[1 + 16 * 2 + 3] = "(1700000000.0abc) can0 713#00".into(); // bad timestamp: scan 2 loses a frame
+    lines.insert(1 + 16 * 5, "garbage that is not candump".into());
+    lines.swap(1 + 16 * 7 + 2, 1 + 16 * 7 + 9); // reordered inside scan 7 (times swap too)
+    lines.remove(1 + 16 * 8 + 15); // scan 8 is truncated
+    lines.truncate(lines.len() - 4); // the capture stopped inside scan 9
+    let (samples, counters, bad) = decode_log(&lines);
+    let seqs: Vec<u64> = samples.iter().map(|s| s.sequence).collect();
+    assert_eq!(seqs, [0, 1, 3, 4, 5, 6, 7], "scans 2 and 8 dropped, 9 unfinished");
+    assert_eq!(bad, 2);
+    assert_eq!(counters.incomplete_scans, 2);
+    let t: Vec<TimeNs> = samples.iter().map(|s| s.t).collect();
+    assert!(t.windows(2).all(|w| w[0] <= w[1]), "times never decrease");
+}
+
+#[test]
+fn other_interfaces_are_skipped_when_one_is_named() {
+    let mut lines = log_lines(3);
+    for l in lines.iter_mut().skip(17) {
+        *l = l.replace(" can0 ", " can1 ");
+    }
+    let text = lines.join("\n");
+    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), Some("can0".into()));
+    assert_eq!(d.count(), 1);
+    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None);
+    assert_eq!(d.count(), 3);
+}
+
+#[test]
+fn a_serial_capture_decodes_with_times_from_the_scan_counter() {
+    let cfg = SerialTactileConfig::default();
+    let mut bytes = vec![0x13, 0x37, 0xA5]; // the capture started mid-frame
+    for s in 0..50u16 {
+        if s == 20 {
+            continue; // a lost scan
+        }
+        for m in 0..3u8 {
+            let taxels: Vec<RawTaxel> = (0..16).map(|t| [u16::from(m), s, t]).collect();
+            ModuleFrame::new(m, s + 100, &taxels).unwrap().encode_into(&mut bytes);
+        }
+    }
+    bytes.extend_from_slice(&[0xA5, 0x5A, 0x00]); // and ended mid-frame
+    let mut d = SerialCaptureDecoder::new(bytes.as_slice(), &cfg, 1000.0);
+    let samples: Vec<_> = d.by_ref().collect();
+    assert_eq!(samples.len(), 49);
+    assert_eq!(samples[0].raw, [[0, 0, 0], [1, 0, 0], [2, 0, 0]]);
+    assert_eq!(samples[0].sequence, 100);
+    assert_eq!(samples[20].sequence, 121);
+    assert_eq!(samples[20].t, TimeNs(21_000_000), "1 kHz from the first scan, across the lost one");
+    let c = d.counters();
+    assert_eq!((c.resyncs, c.gaps, c.frames), (1, 3, 147));
+    assert_eq!(d.trailing_bytes(), 3);
+    assert_eq!(d.bytes(), bytes.len() as u64);
+}
+
+mod arbitrary {
+    //! Arbitrary and damaged captures: no panic, bounded memory, and only
+    //! whole scans with non-decreasing times come out.
+
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// A line of a log: a plausible frame (maybe of the board), or junk bytes.
+    fn arb_line() -> impl Strategy<Value = Vec<u8>> {
+        prop_oneof![
+            3 => (0x700u32..0x720, proptest::collection::vec(any::<u8>(), 0..=8), 0u64..20_000_000)
+                .prop_map(|(id, data, t_us)| {
+                    let frame = CanFrame::standard(id, &data).expect("a standard id and <= 8 bytes");
+                    candump_line(1_700_000_000_000_000 + t_us, "can0", &frame).into_bytes()
+                }),
+            1 => proptest::collection::vec(any::<u8>(), 0..120),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(
+            std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(256)
+        ))]
+
+        /// Logs of frames in any order, junk lines (invalid UTF-8 too) and
+        /// random byte damage.
+        #[test]
+        fn arbitrary_candump_logs_never_panic(
+            lines in proptest::collection::vec(arb_line(), 0..300),
+            damage in proptest::collection::vec((any::<usize>(), any::<u8>()), 0..20),
+        ) {
+            let mut text = lines.join(&b'\n');
+            for (at, byte) in damage {
+                if !text.is_empty() {
+                    let k = at % text.len();
+                    text[k] = byte;
+                }
+            }
+            let mut d = CanLogDecoder::new(text.as_slice(), &can_cfg(), None);
+            let mut last = TimeNs::ZERO;
+            let mut n = 0u64;
+            for sample in d.by_ref() {
+                prop_assert!(sample.t >= last);
+                last = sample.t;
+                n += 1;
+            }
+            prop_assert!(d.bad_lines() <= d.lines());
+            prop_assert!(n * 16 <= d.counters().frames, "{} scans from {} frames", n, d.counters().frames);
+        }
+
+        /// Raw captures of arbitrary bytes with valid frames spliced in.
+        #[test]
+        fn arbitrary_serial_captures_never_panic(
+            junk in proptest::collection::vec(any::<u8>(), 0..6000),
+            frames in proptest::collection::vec((0u8..4, any::<u16>(), 1usize..20, any::<usize>()), 0..40),
+        ) {
+            let mut bytes = junk;
+            for (module, sequence, taxels, at) in frames {
+                let values: Vec<RawTaxel> = (0..taxels).map(|t| [t as u16, sequence, 7]).collect();
+                let f = ModuleFrame::new(module, sequence, &values).expect("1..=64 taxels").encode();
+                let at = if bytes.is_empty() { 0 } else { at % bytes.len() };
+                bytes.splice(at..at, f);
+            }
+            let mut d = SerialCaptureDecoder::new(bytes.as_slice(), &SerialTactileConfig::default(), 1000.0);
+            let mut last = TimeNs::ZERO;
+            for sample in d.by_ref() {
+                prop_assert!(sample.t >= last);
+                last = sample.t;
+            }
+            prop_assert_eq!(d.bytes(), bytes.len() as u64);
+            prop_assert!(d.trailing_bytes() <= crate::serial_protocol::DECODER_CAPACITY);
+            prop_assert!(d.error().is_none());
+        }
+    }
+}

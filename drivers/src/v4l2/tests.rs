@@ -1,0 +1,168 @@
+//! What V4L2 buffers become (MJPG recorded as it comes, YUYV, Z16), driver
+//! timestamps on the session clock, and a real camera when the machine has
+//! one (`SLIDETRACK_V4L2=/dev/videoN`, or the first capture node offering
+//! MJPG or YUYV); without one the device test says so and skips.
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use slidetrack_core::{PixelFormat, WallClock};
+
+use super::*;
+use crate::devices::list_cameras;
+use crate::mjpeg::tests::strip_dht;
+
+fn test_jpeg(width: u16, height: u16) -> Vec<u8> {
+    let data: Vec<u8> =
+        (0..u32::from(width) * u32::from(height) * 3).map(|i| ((i * 13) % 251) as u8).collect();
+    let mut bytes = Vec::new();
+    jpeg_encoder::Encoder::new(&mut bytes, 85)
+        .encode(&data, width, height, jpeg_encoder::ColorType::Rgb)
+        .unwrap();
+    bytes
+}
+
+#[test]
+fn mjpg_frames_are_recorded_byte_for_byte() {
+    let jpeg = test_jpeg(64, 48);
+    let (pixels, encoded) = frame_content(V4l2PixelFormat::Mjpg, 64, 48, 90, &jpeg);
+    let encoded = encoded.unwrap();
+    assert_eq!(encoded.format, "jpeg");
+    assert_eq!(encoded.bytes, jpeg, "no re-encoding");
+    let pixels = pixels.unwrap();
+    assert_eq!((pixels.width, pixels.height, pixels.format), (64, 48, PixelFormat::Gray8));
+}
+
+#[test]
+fn mjpg_frames_without_huffman_tables_get_only_the_tables_added() {
+    let jpeg = test_jpeg(64, 48);
+    let bare = strip_dht(&jpeg);
+    let (pixels, encoded) = frame_content(V4l2PixelFormat::Mjpg, 64, 48, 90, &bare);
+    let recorded = encoded.unwrap().bytes;
+    assert_eq!(recorded, mjpeg::with_huffman_tables(&bare).into_owned());
+    // Everything the camera sent is there, in order, around the inserted tables.
+    let sos = bare.windows(2).position(|w| w == [0xFF, 0xDA]).unwrap();
+    assert!(recorded.starts_with(&bare[..sos]) && recorded.ends_with(&bare[sos..]));
+    assert!(recorded.len() > bare.len());
+    assert_eq!(pixels, mjpeg::decode_gray(&jpeg), "decodes as the frame with its tables");
+}
+
+#[test]
+fn a_corrupt_mjpg_frame_is_still_recorded_but_not_detected_on() {
+    let junk = b"\xFF\xD8 not really a jpeg".to_vec();
+    let (pixels, encoded) = frame_content(V4l2PixelFormat::Mjpg, 64, 48, 90, &junk);
+    assert!(pixels.is_none());
+    assert_eq!(encoded.unwrap().bytes, junk);
+}
+
+#[test]
+fn yuyv_frames_give_their_luma_and_a_jpeg() {
+    let (w, h) = (16u32, 8u32);
+    let yuyv: Vec<u8> = (0..w * h).flat_map(|i| [(i % 220) as u8 + 16, 128]).collect();
+    let (pixels, encoded) = frame_content(V4l2PixelFormat::Yuyv, w, h, 90, &yuyv);
+    let pixels = pixels.unwrap();
+    assert_eq!(pixels.data, yuyv.iter().step_by(2).copied().collect::<Vec<_>>());
+    let encoded = encoded.unwrap();
+    assert_eq!(encoded.format, "jpeg");
+    let decoded = mjpeg::decode_gray(&encoded.bytes).unwrap();
+    assert_eq!((decoded.width, decoded.height), (w, h));
+    // A short buffer (a truncated transfer) gives nothing rather than garbage.
+    assert_eq!(frame_content(V4l2PixelFormat::Yuyv, w, h, 90, &yuyv[..100]), (None, None));
+}
+
+#[test]
+fn z16_frames_are_recorded_as_png_without_pixels() {
+    let z16: Vec<u8> = (0..4u16 * 4).flat_map(|d| (d * 1000).to_le_bytes()).collect();
+    let (pixels, encoded) = frame_content(V4l2PixelFormat::Z16, 4, 4, 90, &z16);
+    assert!(pixels.is_none());
+    assert_eq!(encoded.unwrap().format, "png");
+    assert_eq!(frame_content(V4l2PixelFormat::Z16, 4, 4, 90, &z16[..10]), (None, None));
+}
+
+#[test]
+fn driver_timestamps_map_to_the_session_clock() {
+    // Session time 5 s when the monotonic clock read 1000 s.
+    let map = DriverClockMap { offset_ns: 5_000_000_000 - 1_000_000_000_000 };
+    let now = TimeNs(5_040_000_000);
+    let exposed = 1_000_030_000_000; // monotonic 1000.030 s
+    assert_eq!(map.session_time(exposed, now), TimeNs(5_030_000_000));
+    // Not in the future, not more than a second old: otherwise the arrival time.
+    assert_eq!(map.session_time(exposed + 20_000_000, now), now);
+    assert_eq!(map.session_time(exposed - 2_000_000_000, now), now);
+    // Before the session started: the arrival time, never a negative time.
+    let early = DriverClockMap { offset_ns: -1_000_000_000_000 };
+    assert_eq!(early.session_time(999_900_000_000, TimeNs(50_000_000)), TimeNs(50_000_000));
+    // The offset is captured against the host's monotonic clock.
+    let clock = WallClock::start();
+    let map = DriverClockMap::capture(&clock).unwrap();
+    let mono = clock_gettime(ClockId::CLOCK_MONOTONIC).unwrap();
+    let mono_ns = i128::from(mono.tv_sec()) * 1_000_000_000 + i128::from(mono.tv_nsec());
+    let t = map.session_time(mono_ns, clock.now());
+    assert!(clock.now().0 - t.0 < 100_000_000, "{t:?} vs {:?}", clock.now());
+}
+
+/// A capture device to test on and a format it offers: `(path, format, width, height)`.
+fn camera_under_test() -> Option<(String, V4l2PixelFormat, u32, u32)> {
+    let wanted = std::env::var("SLIDETRACK_V4L2").ok();
+    list_cameras(Path::new("/dev"))
+        .into_iter()
+        .filter(|c| wanted.as_ref().is_none_or(|w| *w == c.path))
+        .find_map(|c| {
+            c.formats.iter().find_map(|f| {
+                let format = match f.fourcc.as_str() {
+                    "MJPG" => V4l2PixelFormat::Mjpg,
+                    "YUYV" => V4l2PixelFormat::Yuyv,
+                    _ => return None,
+                };
+                let size = f.sizes.first()?;
+                Some((c.path.clone(), format, size.width, size.height))
+            })
+        })
+}
+
+#[test]
+fn a_real_camera_streams_frames_on_the_session_clock() {
+    let Some((path, format, width, height)) = camera_under_test() else {
+        eprintln!(
+            "skipping the V4L2 device test: no /dev/video* capture node offering MJPG or YUYV \
+             (plug in a camera, or name one in SLIDETRACK_V4L2)"
+        );
+        return;
+    };
+    let cfg = V4l2CameraConfig {
+        device: path.clone(),
+        width,
+        height,
+        pixel_format: format,
+        fps: 30.0,
+        ..V4l2CameraConfig::default()
+    };
+    let intrinsics = CameraIntrinsics {
+        width,
+        height,
+        fx: 500.0,
+        fy: 500.0,
+        cx: f64::from(width) / 2.0,
+        cy: f64::from(height) / 2.0,
+        distortion: [0.0; 5],
+    };
+    let clock = Arc::new(WallClock::start());
+    let mut camera = V4l2Camera::open(&cfg, intrinsics, clock.clone()).unwrap();
+    let start = Instant::now();
+    let mut frames = Vec::new();
+    while frames.len() < 5 && start.elapsed() < Duration::from_secs(5) {
+        match camera.poll().unwrap() {
+            Some(f) => frames.push(f),
+            None => std::thread::sleep(Duration::from_millis(5)),
+        }
+    }
+    assert!(frames.len() >= 5, "{path}: {} frames in 5 s", frames.len());
+    for pair in frames.windows(2) {
+        assert!(pair[0].t <= pair[1].t && pair[0].sequence < pair[1].sequence);
+    }
+    for f in &frames {
+        assert!(f.t <= clock.now());
+        assert!(f.encoded.as_ref().is_some_and(|e| !e.bytes.is_empty()), "{path}: nothing to record");
+    }
+    eprintln!("{path}: {} frames of {width}x{height} {format:?}", frames.len());
+}

@@ -1,0 +1,191 @@
+//! Sessions as dEKF data: baseline-subtracted tactile channels, the ground
+//! truth at the same scans, cut at the release.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+use slidetrack_core::TimeNs;
+use slidetrack_session::{ProtocolEvent, ReadOptions, SessionError, TactileZeroed, read_channel, read_json};
+
+/// Topic of the ground truth written by `slidetrack label`.
+pub const GROUND_TRUTH_TOPIC: &str = "/ground_truth/sliding";
+/// Topic of the simulator's truth.
+pub const SIM_TRUTH_TOPIC: &str = "/sim/truth";
+
+/// The nine tactile channels in the order of `/tactile/zeroed`.
+pub const ALL_CHANNELS: [&str; 9] =
+    ["thumb.x", "thumb.y", "thumb.z", "index.x", "index.y", "index.z", "middle.x", "middle.y", "middle.z"];
+
+/// A channel set of Table 6.2.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ChannelSet {
+    /// x, y and z of every finger.
+    Xyz,
+    /// x and y (the shear channels) of every finger.
+    Xy,
+    /// z (the normal channel) of every finger.
+    Z,
+}
+
+impl ChannelSet {
+    /// Channel names in model input order.
+    pub fn names(self) -> Vec<String> {
+        let axes: &[&str] = match self {
+            ChannelSet::Xyz => &["x", "y", "z"],
+            ChannelSet::Xy => &["x", "y"],
+            ChannelSet::Z => &["z"],
+        };
+        ["thumb", "index", "middle"]
+            .iter()
+            .flat_map(|f| axes.iter().map(move |a| format!("{f}.{a}")))
+            .collect()
+    }
+
+    /// `xyz`, `xy` or `z`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ChannelSet::Xyz => "xyz",
+            ChannelSet::Xy => "xy",
+            ChannelSet::Z => "z",
+        }
+    }
+}
+
+/// Indices into [`ALL_CHANNELS`] of the named channels.
+pub fn channel_indices(names: &[String]) -> Result<Vec<usize>> {
+    names
+        .iter()
+        .map(|n| {
+            ALL_CHANNELS.iter().position(|c| c == n).with_context(|| {
+                format!("unknown tactile channel `{n}` (known: {})", ALL_CHANNELS.join(", "))
+            })
+        })
+        .collect()
+}
+
+/// Which truth to train and score against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TruthSource {
+    /// `/ground_truth/sliding` from `slidetrack label` (the thesis's protocol).
+    GroundTruth,
+    /// `/sim/truth`, the simulator's own (simulated sessions only).
+    Sim,
+}
+
+impl TruthSource {
+    /// The topic it reads.
+    pub fn topic(self) -> &'static str {
+        match self {
+            TruthSource::GroundTruth => GROUND_TRUTH_TOPIC,
+            TruthSource::Sim => SIM_TRUTH_TOPIC,
+        }
+    }
+}
+
+#[derive(Deserialize)]
+struct PositionVelocity {
+    position: f64,
+    velocity: f64,
+}
+
+/// One session's data at the tactile rate, from the first baseline-subtracted
+/// scan to the release.
+#[derive(Clone, Debug)]
+pub struct SessionData {
+    /// The file.
+    pub path: PathBuf,
+    /// Scan times.
+    pub times: Vec<TimeNs>,
+    /// All nine baseline-subtracted channels per scan (counts).
+    pub zeroed: Vec<[f64; 9]>,
+    /// Truth per scan, `(p, v)` (m, m/s), when the session has it.
+    pub truth: Option<Vec<[f64; 2]>>,
+    /// The tactile scan rate (Hz), from the scan times.
+    pub rate_hz: f64,
+}
+
+/// The session time of the release (or the abort), if any.
+fn end_of_cycles(path: &Path) -> Result<TimeNs> {
+    let events = match read_channel::<ProtocolEvent>(path, ReadOptions::default()) {
+        Ok(e) => e,
+        Err(SessionError::NoSuchTopic { .. }) => Vec::new(),
+        Err(e) => return Err(e.into()),
+    };
+    Ok(events.iter().find(|(_, e)| e.phase == "release" || e.abort).map_or(TimeNs(u64::MAX), |(t, _)| *t))
+}
+
+/// Reads a session; `truth` names the truth to attach (an error when the
+/// session lacks it), or `None` for none.
+pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
+    let end = end_of_cycles(path)?;
+    let zeroed = read_channel::<TactileZeroed>(path, ReadOptions::default())
+        .with_context(|| format!("{}: no baseline-subtracted tactile data", path.display()))?;
+    let zeroed: Vec<_> = zeroed.into_iter().filter(|(t, _)| *t < end).collect();
+    if zeroed.len() < 10 {
+        bail!("{}: only {} tactile scans before the release", path.display(), zeroed.len());
+    }
+    let times: Vec<TimeNs> = zeroed.iter().map(|(t, _)| *t).collect();
+    let values: Vec<[f64; 9]> = zeroed
+        .iter()
+        .map(|(_, z)| {
+            let c = &z.counts;
+            let f = [c.thumb, c.index, c.middle];
+            [f[0].x, f[0].y, f[0].z, f[1].x, f[1].y, f[1].z, f[2].x, f[2].y, f[2].z]
+        })
+        .collect();
+    let span_s = times[times.len() - 1].secs_since(times[0]);
+    let rate_hz = (times.len() - 1) as f64 / span_s.max(1e-9);
+    let truth = match truth {
+        None => None,
+        Some(source) => {
+            let rows = match read_json::<PositionVelocity>(path, source.topic(), ReadOptions::default()) {
+                Ok(rows) => rows,
+                Err(SessionError::NoSuchTopic { .. }) => bail!(
+                    "{} has no {}{}",
+                    path.display(),
+                    source.topic(),
+                    if source == TruthSource::GroundTruth {
+                        "; run `slidetrack label` on it first"
+                    } else {
+                        ""
+                    }
+                ),
+                Err(e) => return Err(e.into()),
+            };
+            let by_time: std::collections::HashMap<u64, [f64; 2]> =
+                rows.iter().map(|(t, r)| (t.0, [r.position, r.velocity])).collect();
+            let aligned: Option<Vec<[f64; 2]>> = times.iter().map(|t| by_time.get(&t.0).copied()).collect();
+            Some(aligned.with_context(|| {
+                format!("{}: {} does not cover every tactile scan", path.display(), source.topic())
+            })?)
+        }
+    };
+    Ok(SessionData { path: path.to_path_buf(), times, zeroed: values, truth, rate_hz })
+}
+
+/// The `.mcap` files named, directories expanded (sorted).
+pub fn expand(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("cannot list {}", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| f.extension().is_some_and(|e| e == "mcap"))
+                .collect();
+            files.sort();
+            out.extend(files);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    if out.is_empty() {
+        bail!(
+            "no session files (.mcap) in {}",
+            paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+        );
+    }
+    Ok(out)
+}

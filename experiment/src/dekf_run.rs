@@ -1,0 +1,251 @@
+//! The dEKF on sessions: the inputs a model reads, running a model over a
+//! session, and scoring its estimates (thesis Sec. 3.4.1, Table 6.1).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use serde::Serialize;
+use slidetrack_core::TimeNs;
+use slidetrack_estimators::dekf::{DekfModel, DekfOutput, DekfTracker, Measurement, Sequence};
+use slidetrack_estimators::derivative::{DerivativeFilter, DerivativeFilterConfig};
+use slidetrack_session::{DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate};
+
+use crate::dataset::{SessionData, channel_indices};
+
+/// Metres to centimetres.
+pub const CM: f64 = 100.0;
+
+/// The model inputs of a session at the filter rate.
+pub struct Inputs {
+    /// Times of the filter steps (every `decimation`-th scan from the first).
+    pub times: Vec<TimeNs>,
+    /// Unnormalised measurement per step, model channel order.
+    pub measurements: Vec<Vec<f64>>,
+    /// Truth per step relative to the first step, `(p, v)` in cm and cm/s.
+    pub truth: Option<Vec<[f64; 2]>>,
+}
+
+/// The filter-rate inputs of `session` for the given channels and measurement.
+pub fn inputs(
+    session: &SessionData,
+    channels: &[String],
+    measurement: Measurement,
+    filter: DerivativeFilterConfig,
+    decimation: usize,
+) -> Result<Inputs> {
+    let idx = channel_indices(channels)?;
+    let mut derivative = DerivativeFilter::new(filter, idx.len());
+    let mut out = Inputs {
+        times: Vec::new(),
+        measurements: Vec::new(),
+        truth: session.truth.as_ref().map(|_| Vec::new()),
+    };
+    let origin = session.truth.as_ref().map(|t| t[0]);
+    let mut values = vec![0.0; idx.len()];
+    for (k, (t, z)) in session.times.iter().zip(&session.zeroed).enumerate() {
+        for (v, &i) in values.iter_mut().zip(&idx) {
+            *v = z[i];
+        }
+        let d = derivative.step(t.as_secs_f64(), &values);
+        if k % decimation != 0 {
+            continue;
+        }
+        out.times.push(*t);
+        out.measurements.push(match measurement {
+            Measurement::Derivative => d.to_vec(),
+            Measurement::Raw => values.clone(),
+        });
+        if let (Some(truth), Some(all), Some(o)) = (out.truth.as_mut(), session.truth.as_ref(), origin) {
+            truth.push([(all[k][0] - o[0]) * CM, all[k][1] * CM]);
+        }
+    }
+    Ok(out)
+}
+
+/// Per-channel mean and standard deviation of the finite measurements.
+pub fn normalisation(all: &[&Inputs], channels: usize) -> (Vec<f32>, Vec<f32>) {
+    let mut sum = vec![0.0f64; channels];
+    let mut sq = vec![0.0f64; channels];
+    let mut n = vec![0usize; channels];
+    for inp in all {
+        for m in &inp.measurements {
+            for (c, v) in m.iter().enumerate() {
+                if v.is_finite() {
+                    sum[c] += v;
+                    sq[c] += v * v;
+                    n[c] += 1;
+                }
+            }
+        }
+    }
+    let mean: Vec<f64> = (0..channels).map(|c| sum[c] / n[c].max(1) as f64).collect();
+    let std = (0..channels)
+        .map(|c| ((sq[c] / n[c].max(1) as f64 - mean[c] * mean[c]).max(0.0)).sqrt() as f32)
+        .collect();
+    (mean.iter().map(|m| *m as f32).collect(), std)
+}
+
+/// A training sequence from `inputs`, normalised with `model`'s normalisation.
+pub fn sequence(model: &DekfModel, inputs: &Inputs) -> Result<Sequence> {
+    let truth = inputs.truth.clone().context("a training session needs its truth")?;
+    let c = model.layout.channels;
+    let mut measurements = Vec::with_capacity(inputs.measurements.len() * c);
+    let mut valid = Vec::with_capacity(inputs.measurements.len());
+    for m in &inputs.measurements {
+        let mut v: Vec<f32> = m.iter().map(|x| *x as f32).collect();
+        let ok = v.iter().all(|x| x.is_finite());
+        model.normalise(&mut v);
+        measurements.extend(v.iter().map(|x| if x.is_finite() { *x } else { 0.0 }));
+        valid.push(ok);
+    }
+    Ok(Sequence { measurements, valid, truth })
+}
+
+/// Checks that `model` can run on `session`.
+pub fn check_compatible(model: &DekfModel, session: &SessionData) -> Result<()> {
+    channel_indices(&model.meta.channels)
+        .context("the model's channels do not match the session's tactile channels")?;
+    let expected = model.meta.tactile_rate_hz;
+    if (session.rate_hz - expected).abs() > 0.05 * expected {
+        bail!(
+            "{}: tactile rate {:.1} Hz, but the model was trained at {:.1} Hz (decimation {})",
+            session.path.display(),
+            session.rate_hz,
+            expected,
+            model.meta.decimation
+        );
+    }
+    Ok(())
+}
+
+/// Runs `model` over `session` from its first scan: the estimates of every
+/// filter step with their scan times.
+pub fn run(model: &DekfModel, session: &SessionData) -> Result<Vec<(TimeNs, DekfOutput)>> {
+    check_compatible(model, session)?;
+    let idx = channel_indices(&model.meta.channels)?;
+    let mut tracker = DekfTracker::new(model);
+    let mut values = vec![0.0; idx.len()];
+    let mut out = Vec::new();
+    for (t, z) in session.times.iter().zip(&session.zeroed) {
+        for (v, &i) in values.iter_mut().zip(&idx) {
+            *v = z[i];
+        }
+        if let Some(o) = tracker.on_scan(t.as_secs_f64(), &values) {
+            out.push((*t, o));
+        }
+    }
+    Ok(out)
+}
+
+/// The `/estimate/dekf` message of a dEKF output (cm -> m).
+pub fn estimate_message(o: &DekfOutput) -> DekfEstimate {
+    let s = 1.0 / CM;
+    let c = o.cov;
+    DekfEstimate(SlidingEstimate {
+        position: o.mean[0] * s,
+        velocity: o.mean[1] * s,
+        covariance: [[c[0][0] * s * s, c[0][1] * s * s], [c[1][0] * s * s, c[1][1] * s * s]],
+    })
+}
+
+/// The channel metadata of `/tactile/derivative` and `/estimate/dekf` for
+/// `model` read from the file named `model_name`.
+pub fn estimate_metadata(model: &DekfModel, model_name: &str) -> Result<[BTreeMap<String, String>; 2]> {
+    let derivative = BTreeMap::from([
+        (DERIVATIVE_CHANNELS_KEY.to_string(), serde_json::to_string(&model.meta.channels)?),
+        ("model".to_string(), model_name.to_string()),
+        ("measurement".to_string(), model.meta.measurement.name().to_string()),
+    ]);
+    let estimate = BTreeMap::from([("model".to_string(), model_name.to_string())]);
+    Ok([derivative, estimate])
+}
+
+/// Errors of one session (Table 6.1 metrics), in cm and cm/s.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Scores {
+    /// Position RMSE (cm).
+    pub position_rmse_cm: f64,
+    /// Largest position error (cm).
+    pub position_max_cm: f64,
+    /// Velocity RMSE (cm/s).
+    pub velocity_rmse_cmps: f64,
+    /// Largest velocity error (cm/s).
+    pub velocity_max_cmps: f64,
+    /// Position RMSE of the zero-motion baseline (p = 0) (cm).
+    pub baseline_position_rmse_cm: f64,
+    /// Velocity RMSE of the zero-motion baseline (v = 0) (cm/s).
+    pub baseline_velocity_rmse_cmps: f64,
+    /// Filter steps compared.
+    pub steps: usize,
+}
+
+/// Scores estimates `(p, v)` (cm, cm/s) against the truth at the same steps.
+pub fn score(estimates: &[[f64; 2]], truth: &[[f64; 2]]) -> Scores {
+    let n = estimates.len().min(truth.len());
+    let mut s = Scores { steps: n, ..Scores::default() };
+    let (mut sp, mut sv, mut bp, mut bv) = (0.0, 0.0, 0.0, 0.0);
+    for (e, t) in estimates.iter().zip(truth).take(n) {
+        let (dp, dv) = ((e[0] - t[0]).abs(), (e[1] - t[1]).abs());
+        sp += dp * dp;
+        sv += dv * dv;
+        bp += t[0] * t[0];
+        bv += t[1] * t[1];
+        s.position_max_cm = s.position_max_cm.max(dp);
+        s.velocity_max_cmps = s.velocity_max_cmps.max(dv);
+    }
+    let n = n.max(1) as f64;
+    s.position_rmse_cm = (sp / n).sqrt();
+    s.velocity_rmse_cmps = (sv / n).sqrt();
+    s.baseline_position_rmse_cm = (bp / n).sqrt();
+    s.baseline_velocity_rmse_cmps = (bv / n).sqrt();
+    s
+}
+
+/// The mean of several sessions' scores (Table 6.1's MEAN row averages sessions).
+pub fn mean_scores(all: &[Scores]) -> Scores {
+    let n = all.len().max(1) as f64;
+    let avg = |f: fn(&Scores) -> f64| all.iter().map(f).sum::<f64>() / n;
+    Scores {
+        position_rmse_cm: avg(|s| s.position_rmse_cm),
+        position_max_cm: avg(|s| s.position_max_cm),
+        velocity_rmse_cmps: avg(|s| s.velocity_rmse_cmps),
+        velocity_max_cmps: avg(|s| s.velocity_max_cmps),
+        baseline_position_rmse_cm: avg(|s| s.baseline_position_rmse_cm),
+        baseline_velocity_rmse_cmps: avg(|s| s.baseline_velocity_rmse_cmps),
+        steps: all.iter().map(|s| s.steps).sum(),
+    }
+}
+
+/// Reads a model file.
+pub fn load_model(path: &Path) -> Result<DekfModel> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read model {}", path.display()))?;
+    slidetrack_estimators::dekf::file::from_bytes(&bytes)
+        .with_context(|| format!("invalid model file {}", path.display()))
+}
+
+/// Writes a model file atomically (temporary file in the same directory, then rename).
+pub fn save_model(model: &DekfModel, path: &Path) -> Result<()> {
+    let bytes = slidetrack_estimators::dekf::file::to_bytes(model)?;
+    write_atomically(path, &bytes)
+}
+
+/// Writes `bytes` to `path` through a temporary file and a rename, so that
+/// `path` is either the old file or the complete new one.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp-{}",
+        path.file_name().map_or("out".into(), |n| n.to_string_lossy()),
+        std::process::id()
+    ));
+    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("cannot write {}", path.display())
+    })
+}

@@ -1,0 +1,217 @@
+//! The real rig: the devices the `[hw]` table of the rig TOML names, on the
+//! host's monotonic clock. Roles left to `sim` use the simulated rig's
+//! devices on the same wall clock; `port = "emulated"` puts the serial
+//! backend in front of the simulated sensors through a pseudo-terminal.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use slidetrack_calibration::camera_info::read_camera_info;
+use slidetrack_calibration::{encode_jpeg, marker_pattern};
+use slidetrack_control::Rig;
+use slidetrack_core::{
+    Camera, CameraIntrinsics, Clock, HandActuator, TactileSource, TruthSource, WallClock, parse_toml,
+};
+use slidetrack_drivers::config::{
+    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, TactileDevice, V4l2CameraConfig,
+};
+use slidetrack_drivers::{CanHand, CanTactile, EmulatedSerialTactile, SerialTactile, V4l2Camera};
+use slidetrack_sim::camera::SimCameraRenderer;
+use slidetrack_sim::{SimCamera, SimDevices, Stream, stream_seed};
+
+use crate::trial::{RigSetup, TrialSpec, marker_tracking};
+
+/// A one-line description of the devices, for the log.
+pub fn describe(hw: &HwRigConfig) -> String {
+    let tactile = match &hw.tactile {
+        TactileDevice::Sim => "sim".to_string(),
+        TactileDevice::Serial(s) => format!("serial {}", s.port),
+        TactileDevice::Can(c) => format!("CAN {} board {}", c.interface, c.board),
+    };
+    let camera = match &hw.camera {
+        CameraDevice::None => "none".to_string(),
+        CameraDevice::Sim => "sim".to_string(),
+        CameraDevice::V4l2(v) => format!("V4L2 {}", v.device),
+    };
+    let hand = match &hw.hand {
+        HandDevice::Sim => "sim".to_string(),
+        HandDevice::Can(h) => format!("CAN {}", h.interface),
+    };
+    format!("rig {}: tactile {tactile}, camera {camera}, hand {hand}", hw.name)
+}
+
+/// A camera whose slow set-up (marker, renderer, calibration) is done.
+enum PreparedCamera {
+    Sim(Box<SimCameraRenderer>),
+    V4l2(Box<V4l2CameraConfig>, CameraIntrinsics),
+}
+
+/// The devices of `spec.rig.hw`, opened and started.
+///
+/// Slow set-up comes first; then the session clock starts, the hand and the
+/// camera open, and the tactile device, whose scans pace the trial, opens
+/// last, so that no backlog of scans builds up before the trial reads them.
+pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
+    let Some(hw) = spec.rig.hw.as_ref() else {
+        bail!(
+            "--rig hw needs a [hw] table in the rig configuration (--config rig.toml) that names the devices; \
+             see the README's \"Hardware\" section"
+        );
+    };
+    tracing::info!("{}", describe(hw));
+    let emulated = matches!(&hw.tactile, TactileDevice::Serial(s) if s.port == EMULATED_PORT);
+    if emulated && !matches!(hw.hand, HandDevice::Sim) {
+        bail!(
+            "hw.tactile port = \"emulated\" needs hw.hand kind = \"sim\": the emulated sensors feel the simulated hand"
+        );
+    }
+    let (prepared, tracking) = match (&hw.camera, spec.camera) {
+        (CameraDevice::None, _) | (_, false) => (None, None),
+        (CameraDevice::Sim, true) => {
+            let renderer = sim_renderer(spec)?;
+            let tracking = marker_tracking(spec, *renderer.hand_from_camera(), renderer.intrinsics())?;
+            (Some(PreparedCamera::Sim(Box::new(renderer))), Some(tracking))
+        }
+        (CameraDevice::V4l2(v), true) => {
+            let intrinsics = v4l2_intrinsics(v)?;
+            let hand_from_camera = v.placement.hand_from_camera().context("hw.camera.placement")?;
+            let tracking = marker_tracking(spec, hand_from_camera, &intrinsics)?;
+            (Some(PreparedCamera::V4l2(v.clone(), intrinsics)), Some(tracking))
+        }
+    };
+
+    let clock: Arc<dyn Clock> = Arc::new(WallClock::start());
+    let needs_world = matches!(hw.tactile, TactileDevice::Sim)
+        || emulated
+        || matches!(hw.hand, HandDevice::Sim)
+        || matches!(prepared, Some(PreparedCamera::Sim(_)));
+    let sim = needs_world
+        .then(|| SimDevices::new(&spec.rig.sim, spec.object, spec.seed, spec.trial, Arc::clone(&clock)));
+    let (sim_tactile, sim_hand, sim_truth, world) = match sim {
+        Some(s) => (Some(s.tactile), Some(s.hand), Some(s.truth), Some(s.world)),
+        None => (None, None, None, None),
+    };
+    let hand: Box<dyn HandActuator> = match (&hw.hand, sim_hand) {
+        (HandDevice::Sim, Some(h)) => Box::new(h),
+        (HandDevice::Can(c), _) => Box::new(CanHand::open(c)?),
+        (HandDevice::Sim, None) => bail!("internal: the simulated hand was not built"),
+    };
+    let camera: Option<Box<dyn Camera>> = match (prepared, &world) {
+        (None, _) => None,
+        (Some(PreparedCamera::Sim(renderer)), Some(world)) => {
+            let g = &spec.rig.geometry;
+            let camera = SimCamera::new(
+                Arc::clone(world),
+                *renderer,
+                g.object_start_in_hand_m,
+                g.sliding_axis_in_hand,
+            )?;
+            let quality = camera.jpeg_quality();
+            Some(Box::new(camera.with_encoder(Box::new(move |image| encode_jpeg(image, quality).ok()))))
+        }
+        (Some(PreparedCamera::Sim(_)), None) => bail!("internal: the simulated world was not built"),
+        (Some(PreparedCamera::V4l2(v, intrinsics)), _) => {
+            Some(Box::new(V4l2Camera::open(&v, intrinsics, Arc::clone(&clock))?))
+        }
+    };
+    let sim_rate = spec.rig.sim.tactile_rate_hz;
+    let mut truth: Option<Box<dyn TruthSource>> = None;
+    let tactile: Box<dyn TactileSource> = match (&hw.tactile, sim_tactile) {
+        (TactileDevice::Sim, Some(t)) => {
+            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
+            Box::new(t)
+        }
+        (TactileDevice::Serial(s), Some(t)) if emulated => {
+            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
+            Box::new(EmulatedSerialTactile::start(Box::new(t), s, sim_rate, Arc::clone(&clock))?)
+        }
+        (TactileDevice::Serial(s), _) => {
+            Box::new(SerialTactile::open(&s.port, s, s.rate_hz, Arc::clone(&clock))?)
+        }
+        (TactileDevice::Can(c), _) => Box::new(CanTactile::open(c, Arc::clone(&clock))?),
+        (TactileDevice::Sim, None) => bail!("internal: the simulated tactile modules were not built"),
+    };
+    if world.is_some() && !emulated && !matches!(hw.tactile, TactileDevice::Sim) {
+        tracing::warn!("the simulated hand or camera does not feel the real sensors: the loop is open");
+    }
+    let tactile_info = tactile.info();
+    let rig = Rig { tactile, hand, camera, clock, truth };
+    Ok(RigSetup { rig, tactile_info, tracking, rig_name: hw.name.clone() })
+}
+
+/// The simulated camera's renderer (the marker comes from OpenCV's dictionaries).
+fn sim_renderer(spec: &TrialSpec) -> Result<SimCameraRenderer> {
+    let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
+        .context("cannot make the marker for the simulated camera")?;
+    let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
+    SimCameraRenderer::new(spec.rig.camera.clone(), spec.object.appearance.clone(), marker, seed)
+        .context("cannot set up the simulated camera")
+}
+
+/// The intrinsics of a V4L2 camera: its calibration file (ROS `camera_info`
+/// or OpenCV YAML, or TOML with the fields of `intrinsics`) or the inline table.
+fn v4l2_intrinsics(v: &V4l2CameraConfig) -> Result<CameraIntrinsics> {
+    let intrinsics = match (&v.calibration, &v.intrinsics) {
+        (Some(path), _) => read_intrinsics(path, v.width, v.height)?,
+        (None, Some(k)) => k.clone(),
+        (None, None) => bail!("hw.camera needs `calibration` or inline `intrinsics`"),
+    };
+    if (intrinsics.width, intrinsics.height) != (v.width, v.height) {
+        bail!(
+            "the camera intrinsics are for {}x{} px but hw.camera streams {}x{} px",
+            intrinsics.width,
+            intrinsics.height,
+            v.width,
+            v.height
+        );
+    }
+    Ok(intrinsics)
+}
+
+fn read_intrinsics(path: &Path, width: u32, height: u32) -> Result<CameraIntrinsics> {
+    if path.extension().is_some_and(|e| e == "toml") {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read camera calibration {}", path.display()))?;
+        return Ok(parse_toml(&text, &path.display().to_string())?);
+    }
+    let info = read_camera_info(path)?;
+    let sized = info.has_image_size();
+    let mut intrinsics = info.intrinsics;
+    if !sized {
+        // OpenCV files may omit the size: it is the size the camera streams.
+        (intrinsics.width, intrinsics.height) = (width, height);
+    }
+    Ok(intrinsics)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rig_config::RigConfig;
+
+    #[test]
+    fn the_readme_hardware_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../README.md");
+        let section = readme.find("## Hardware").expect("a Hardware section");
+        let start = section + readme[section..].find("```toml\n").expect("a toml block") + 8;
+        let end = start + readme[start..].find("```").expect("closed block");
+        let cfg: RigConfig = parse_toml(&readme[start..end], "README.md").unwrap();
+        cfg.validate().unwrap();
+        let hw = cfg.hw.expect("a [hw] table");
+        assert_eq!(
+            describe(&hw),
+            "rig lab-hand: tactile serial /dev/ttyACM0, camera V4L2 /dev/video0, hand CAN can0"
+        );
+    }
+
+    #[test]
+    fn a_rig_config_with_hw_round_trips_through_the_session_metadata() {
+        let text = "[hw]\nname = \"x\"\n[hw.tactile]\nkind = \"serial\"\nport = \"emulated\"\n";
+        let cfg: RigConfig = parse_toml(text, "rig.toml").unwrap();
+        let back: RigConfig = parse_toml(&toml::to_string(&cfg).unwrap(), "metadata").unwrap();
+        assert_eq!(back, cfg);
+        let plain = toml::to_string(&RigConfig::default()).unwrap();
+        assert!(!plain.contains("[hw"), "no [hw] table for the simulated rig");
+    }
+}

@@ -1,0 +1,18 @@
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+
+pub mod dataset;
+pub mod dekf_eval;
+pub mod dekf_run;
+pub mod dekf_train;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod hw_rig;
+pub mod observer;
+pub mod pipeline;
+pub mod plot;
+pub mod rig_config;
+pub mod study;
+pub mod tracking;
+pub mod trial;
+pub mod vision_inhand;
+pub mod vision_sim;

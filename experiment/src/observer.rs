@@ -1,0 +1,300 @@
+//! Records everything a trial produces into its session, and detects the
+//! marker in each camera frame on the way.
+
+use std::collections::BTreeMap;
+
+use anyhow::Result;
+use nalgebra::Point3;
+use slidetrack_calibration::{MarkerTracker, SlidingProjector, marker_pose};
+use slidetrack_control::{Baseline, ControlRecord, ObserverError, ProtocolEvent, Tare, TrialObserver};
+use slidetrack_core::{
+    CameraIntrinsics, DecoderCounters, Frame, PerFinger, SimTruth, TactileInfo, TactileSample, TimeNs,
+};
+use slidetrack_session::{
+    ArucoDetection, CameraCalibration, ChannelHandle, ChannelMessage, CompressedImage, FingerSetpoint,
+    GraspControl, HandCommand, Logger, ProtocolEvent as EventMsg, Quaternion, SimTruth as TruthMsg,
+    TactileDecoder, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz,
+};
+
+/// The marker detection of a trial.
+pub struct MarkerTracking {
+    /// Finds the object's marker frame to frame.
+    pub tracker: MarkerTracker,
+    /// Side of the marker's black square (m).
+    pub marker_size_m: f64,
+    /// The camera's intrinsics.
+    pub intrinsics: CameraIntrinsics,
+    /// Marker position -> travel along the sliding axis, 0 at the first detection.
+    pub projector: SlidingProjector,
+}
+
+/// What a trial recorded, for the summary line.
+#[derive(Clone, Debug, Default)]
+pub struct TrialStats {
+    /// Tactile scans.
+    pub scans: u64,
+    /// Camera frames.
+    pub frames: u64,
+    /// Frames in which the marker was found.
+    pub detections: u64,
+    /// Largest marker travel seen (m).
+    pub max_marker_travel_m: f64,
+    /// The simulator's truth, `(t, position m, velocity m/s)` at each scan.
+    pub truth: Vec<(TimeNs, f64, f64)>,
+    /// Session time of the release (the end of the cycles), if reached.
+    pub release_at: Option<TimeNs>,
+    /// The tactile decoder's last counters (real devices only).
+    pub decoder: Option<DecoderCounters>,
+}
+
+struct Channels {
+    raw: ChannelHandle,
+    tare: ChannelHandle,
+    zeroed: ChannelHandle,
+    grasp: ChannelHandle,
+    command: ChannelHandle,
+    events: ChannelHandle,
+    truth: Option<ChannelHandle>,
+    image: Option<ChannelHandle>,
+    calibration: Option<ChannelHandle>,
+    aruco: Option<ChannelHandle>,
+    /// `/tactile/decoder`, registered with the first counters.
+    decoder: Option<ChannelHandle>,
+}
+
+/// Live work on a trial's data beside the recording (the online trackers of
+/// `slidetrack track`). The hooks run on the control loop's thread after the
+/// data they receive has been recorded; an error ends the trial with a safe
+/// release, like a recording error.
+pub trait TrialExtension {
+    /// A baseline-subtracted tactile scan (counts, `[finger][x, y, z]`).
+    fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError>;
+    /// A camera frame and the marker position along the sliding axis found
+    /// in it (m), `None` when the marker was not found.
+    fn on_frame(&mut self, frame: &Frame, position_on_axis_m: Option<f64>) -> Result<(), ObserverError>;
+    /// The simulator's truth at a scan (simulated rig only).
+    fn on_truth(&mut self, _truth: &SimTruth) {}
+    /// A protocol event.
+    fn on_event(&mut self, _t: TimeNs, _event: &ProtocolEvent) {}
+}
+
+/// Longest time between two `/tactile/decoder` messages while nothing changes (s).
+const DECODER_LOG_PERIOD_S: f64 = 1.0;
+
+/// A [`TrialObserver`] that records to a session.
+pub struct SessionObserver<'a> {
+    logger: Logger,
+    ch: Channels,
+    marker: Option<MarkerTracking>,
+    stats: TrialStats,
+    progress: Box<dyn FnMut(TimeNs) + 'a>,
+    /// When the decoder counters were last written, and what they were.
+    decoder_written: Option<(TimeNs, DecoderCounters)>,
+    extension: Option<Box<dyn TrialExtension + 'a>>,
+}
+
+impl<'a> SessionObserver<'a> {
+    /// Registers the session's channels. `camera` carries the intrinsics and
+    /// marker detection when the trial has a camera; `with_truth` adds `/sim/truth`.
+    pub fn new(
+        logger: Logger,
+        tactile: &TactileInfo,
+        camera: Option<MarkerTracking>,
+        with_truth: bool,
+        progress: Box<dyn FnMut(TimeNs) + 'a>,
+    ) -> Result<SessionObserver<'a>> {
+        let none = BTreeMap::new;
+        let layout = TaxelLayout::new(tactile, tactile.taxels).channel_metadata();
+        let ch = Channels {
+            raw: logger.register::<TactileRaw>(layout)?,
+            tare: logger.register::<TactileTare>(none())?,
+            zeroed: logger.register::<TactileZeroed>(none())?,
+            grasp: logger.register::<GraspControl>(none())?,
+            command: logger.register::<HandCommand>(none())?,
+            events: logger.register::<EventMsg>(none())?,
+            truth: with_truth.then(|| logger.register::<TruthMsg>(none())).transpose()?,
+            image: camera.as_ref().map(|_| logger.register::<CompressedImage>(none())).transpose()?,
+            calibration: camera.as_ref().map(|_| logger.register::<CameraCalibration>(none())).transpose()?,
+            aruco: camera.as_ref().map(|_| logger.register::<ArucoDetection>(none())).transpose()?,
+            decoder: None,
+        };
+        if let (Some(c), Some(m)) = (&ch.calibration, &camera) {
+            logger.log_json(
+                c,
+                TimeNs::ZERO,
+                TimeNs::ZERO,
+                0,
+                &CameraCalibration::new(TimeNs::ZERO, "camera", &m.intrinsics),
+            )?;
+        }
+        Ok(SessionObserver {
+            logger,
+            ch,
+            marker: camera,
+            stats: TrialStats::default(),
+            progress,
+            decoder_written: None,
+            extension: None,
+        })
+    }
+
+    /// Runs `extension` on the trial's data as it is recorded.
+    pub fn with_extension(mut self, extension: Box<dyn TrialExtension + 'a>) -> SessionObserver<'a> {
+        self.extension = Some(extension);
+        self
+    }
+
+    /// Writes the decoder's latest counters at `t` unless they were written already.
+    fn flush_decoder(&mut self, t: TimeNs) -> Result<(), ObserverError> {
+        let (Some(ch), Some(latest)) = (&self.ch.decoder, self.stats.decoder) else { return Ok(()) };
+        if self.decoder_written.is_some_and(|(_, c)| c == latest) {
+            return Ok(());
+        }
+        self.logger.log_json(ch, t, t, 0, &TactileDecoder::from(&latest))?;
+        self.decoder_written = Some((t, latest));
+        Ok(())
+    }
+
+    /// What was recorded so far.
+    pub fn stats(&self) -> &TrialStats {
+        &self.stats
+    }
+
+    fn log<T: ChannelMessage>(&self, ch: &ChannelHandle, t: TimeNs, msg: &T) -> Result<(), ObserverError> {
+        self.logger.log_json(ch, t, t, 0, msg)?;
+        Ok(())
+    }
+
+    fn detect(&mut self, frame: &Frame) -> Result<ArucoDetection, ObserverError> {
+        let Some(m) = self.marker.as_mut() else { return Ok(ArucoDetection::missed()) };
+        let Some(image) = frame.pixels.as_ref() else { return Ok(ArucoDetection::missed()) };
+        let Some(found) = m.tracker.detect(image)? else { return Ok(ArucoDetection::missed()) };
+        let mut msg = ArucoDetection {
+            detected: true,
+            marker_id: Some(found.id),
+            corners_px: Some(found.corners_px),
+            ..ArucoDetection::missed()
+        };
+        // A detection whose pose cannot be solved is still a detection (corners),
+        // with no position.
+        if let Ok(pose) = marker_pose(&found, &m.intrinsics, m.marker_size_m) {
+            let t = pose.camera_from_marker.translation.vector;
+            let q = pose.camera_from_marker.rotation;
+            msg.position_in_camera_m = Some([t.x, t.y, t.z]);
+            msg.orientation_in_camera = Some(Quaternion { x: q.i, y: q.j, z: q.k, w: q.w });
+            msg.reprojection_error_px = Some(pose.reprojection_error_px);
+            msg.position_on_axis_m = m.projector.project(&Point3::from(t));
+        }
+        Ok(msg)
+    }
+}
+
+fn xyz3(v: [f64; 3]) -> Xyz<f64> {
+    Xyz::from_array(v)
+}
+
+impl TrialObserver for SessionObserver<'_> {
+    fn on_tactile(&mut self, s: &TactileSample) -> Result<(), ObserverError> {
+        self.stats.scans += 1;
+        let seq = (s.sequence & u64::from(u32::MAX)) as u32;
+        self.logger.log_json(&self.ch.raw, s.t, s.t, seq, &TactileRaw::from(s))?;
+        (self.progress)(s.t);
+        Ok(())
+    }
+
+    fn on_truth(&mut self, t: &SimTruth) -> Result<(), ObserverError> {
+        self.stats.truth.push((t.t, t.position_m, t.velocity_mps));
+        if let Some(x) = self.extension.as_mut() {
+            x.on_truth(t);
+        }
+        let Some(ch) = &self.ch.truth else { return Ok(()) };
+        let msg = TruthMsg {
+            position: t.position_m,
+            velocity: t.velocity_mps,
+            sliding: t.sliding(),
+            supported: t.supported,
+            normal_force: PerFinger::from_array(t.normal_n),
+            friction_force: PerFinger::from_array(t.friction_n),
+        };
+        self.log(ch, t.t, &msg)
+    }
+
+    fn on_tare(&mut self, t: TimeNs, tare: &Tare) -> Result<(), ObserverError> {
+        let msg =
+            TactileTare { samples: tare.scans, baseline: PerFinger::from_array(tare.baseline.map(xyz3)) };
+        self.log(&self.ch.tare, t, &msg)
+    }
+
+    fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
+        self.log(&self.ch.zeroed, t, &TactileZeroed { counts: PerFinger::from_array(zeroed.map(xyz3)) })?;
+        match self.extension.as_mut() {
+            Some(x) => x.on_zeroed(t, zeroed),
+            None => Ok(()),
+        }
+    }
+
+    fn on_control(&mut self, t: TimeNs, r: &ControlRecord) -> Result<(), ObserverError> {
+        let fingers = PerFinger::from_fn(|f| FingerSetpoint {
+            desired: r.desired_counts[f.index()],
+            achieved: r.achieved_counts[f.index()],
+        });
+        let msg = GraspControl { phase: r.phase.name().into(), reference: r.reference_counts, fingers };
+        self.log(&self.ch.grasp, t, &msg)
+    }
+
+    fn on_command(&mut self, t: TimeNs, volts: [f64; 3], saturated: bool) -> Result<(), ObserverError> {
+        self.log(&self.ch.command, t, &HandCommand { volts: PerFinger::from_array(volts), saturated })
+    }
+
+    fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError> {
+        self.stats.frames += 1;
+        let seq = (frame.sequence & u64::from(u32::MAX)) as u32;
+        let detection = self.detect(&frame)?;
+        if detection.detected {
+            self.stats.detections += 1;
+        }
+        if let Some(p) = detection.position_on_axis_m {
+            self.stats.max_marker_travel_m = self.stats.max_marker_travel_m.max(p.abs());
+        }
+        if let (Some(ch), Some(encoded)) = (&self.ch.image, &frame.encoded) {
+            let msg = CompressedImage::new(frame.t, "camera", encoded);
+            self.logger.log_json_lossy(ch, frame.t, frame.t, seq, &msg)?;
+        }
+        if let Some(ch) = &self.ch.aruco {
+            self.logger.log_json(ch, frame.t, frame.t, seq, &detection)?;
+        }
+        if let Some(x) = self.extension.as_mut() {
+            x.on_frame(&frame, detection.position_on_axis_m)?;
+        }
+        Ok(detection.position_on_axis_m)
+    }
+
+    fn on_event(&mut self, t: TimeNs, e: &ProtocolEvent) -> Result<(), ObserverError> {
+        if e.phase == slidetrack_core::Phase::Release {
+            self.stats.release_at = Some(t);
+        }
+        if matches!(e.phase, slidetrack_core::Phase::Done | slidetrack_core::Phase::Aborted) {
+            let last = self.decoder_written.map_or(t, |(w, _)| w.max(t));
+            self.flush_decoder(last)?;
+        }
+        if let Some(x) = self.extension.as_mut() {
+            x.on_event(t, e);
+        }
+        tracing::info!(phase = e.phase.name(), "{}", e.message);
+        let msg =
+            EventMsg { phase: e.phase.name().into(), message: e.message.clone(), abort: e.abort.is_some() };
+        self.log(&self.ch.events, t, &msg)
+    }
+
+    fn on_decoder(&mut self, t: TimeNs, counters: &DecoderCounters) -> Result<(), ObserverError> {
+        if self.ch.decoder.is_none() {
+            self.ch.decoder = Some(self.logger.register::<TactileDecoder>(BTreeMap::new())?);
+        }
+        self.stats.decoder = Some(*counters);
+        let due = match self.decoder_written {
+            None => true,
+            Some((t0, c0)) => counters.errors_differ(&c0) || t.secs_since(t0) >= DECODER_LOG_PERIOD_S,
+        };
+        if due { self.flush_decoder(t) } else { Ok(()) }
+    }
+}

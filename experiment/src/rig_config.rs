@@ -1,0 +1,156 @@
+//! The rig configuration (TOML): simulated hand and sensors, camera, marker,
+//! geometry and protocol settings. Every table has defaults; a file names only
+//! what it changes.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use slidetrack_control::ProtocolSettings;
+use slidetrack_drivers::HwRigConfig;
+use slidetrack_sim::SimRigConfig;
+use slidetrack_sim::camera::SimCameraConfig;
+
+/// A whole rig configuration.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RigConfig {
+    /// The simulated hand and tactile sensors.
+    pub sim: SimRigConfig,
+    /// The simulated camera.
+    pub camera: SimCameraConfig,
+    /// The ArUco marker on the object.
+    pub marker: MarkerConfig,
+    /// Where things are in the hand frame.
+    pub geometry: Geometry,
+    /// The experiment protocol.
+    pub protocol: ProtocolSettings,
+    /// The real rig's devices (`--rig hw`); absent for the simulated rig.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hw: Option<HwRigConfig>,
+}
+
+/// The ArUco marker on the object (its size comes with the object).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MarkerConfig {
+    /// OpenCV predefined dictionary name.
+    pub dictionary: String,
+    /// Marker id.
+    pub id: u32,
+}
+
+impl Default for MarkerConfig {
+    fn default() -> Self {
+        MarkerConfig { dictionary: "DICT_6X6_250".into(), id: 7 }
+    }
+}
+
+/// Geometry of the rig in the hand frame (x out of the palm, y left, z up).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Geometry {
+    /// Direction the object slides along (unit vector, hand frame).
+    pub sliding_axis_in_hand: [f64; 3],
+    /// Where the object's origin (the grasp point) is before it slides (m, hand frame).
+    pub object_start_in_hand_m: [f64; 3],
+}
+
+impl Default for Geometry {
+    fn default() -> Self {
+        Geometry { sliding_axis_in_hand: [0.0, 0.0, -1.0], object_start_in_hand_m: [0.10, 0.0, 0.0] }
+    }
+}
+
+impl RigConfig {
+    /// Reads a rig configuration, or the defaults when `path` is `None`.
+    pub fn load(path: Option<&Path>) -> Result<RigConfig> {
+        let Some(path) = path else { return Ok(RigConfig::default()) };
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read rig config {}", path.display()))?;
+        let cfg: RigConfig =
+            slidetrack_core::parse_toml(&text, &path.display().to_string()).context("invalid rig config")?;
+        cfg.validate().with_context(|| format!("invalid rig config {}", path.display()))?;
+        Ok(cfg)
+    }
+
+    /// Checks values that TOML types cannot.
+    pub fn validate(&self) -> Result<()> {
+        let axis = self.geometry.sliding_axis_in_hand;
+        let norm = axis.iter().map(|a| a * a).sum::<f64>().sqrt();
+        anyhow::ensure!(
+            norm.is_finite() && (norm - 1.0).abs() < 1e-3,
+            "geometry.sliding_axis_in_hand must be a unit vector, got {axis:?}"
+        );
+        let s = &self.sim;
+        anyhow::ensure!(
+            s.physics_rate_hz >= s.tactile_rate_hz && s.tactile_rate_hz > 0.0,
+            "sim.physics_rate_hz ({}) must be at least sim.tactile_rate_hz ({}) and both positive",
+            s.physics_rate_hz,
+            s.tactile_rate_hz
+        );
+        anyhow::ensure!(
+            self.protocol.control_rate_hz > 0.0 && self.protocol.control_rate_hz <= s.tactile_rate_hz,
+            "protocol.control_rate_hz ({}) must be positive and at most the tactile rate ({})",
+            self.protocol.control_rate_hz,
+            s.tactile_rate_hz
+        );
+        self.camera.validate().context("camera")?;
+        if let Some(hw) = &self.hw {
+            hw.validate()?;
+            let rate = hw.tactile_rate_hz(s.tactile_rate_hz);
+            anyhow::ensure!(
+                self.protocol.control_rate_hz <= rate,
+                "protocol.control_rate_hz ({}) must be at most the hw tactile rate ({rate})",
+                self.protocol.control_rate_hz
+            );
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_empty_file_is_the_default_rig() {
+        let cfg: RigConfig = toml::from_str("").unwrap();
+        assert_eq!(cfg, RigConfig::default());
+        cfg.validate().unwrap();
+    }
+
+    #[test]
+    fn a_partial_table_overrides_only_what_it_names() {
+        let cfg: RigConfig =
+            toml::from_str("[sim]\ntactile_rate_hz = 200.0\n[protocol.pi]\nkp_volt_per_count = 1e-3\n")
+                .unwrap();
+        assert_eq!(cfg.sim.tactile_rate_hz, 200.0);
+        assert_eq!(cfg.sim.physics_rate_hz, SimRigConfig::default().physics_rate_hz);
+        assert_eq!(cfg.protocol.pi.kp_volt_per_count, 1e-3);
+    }
+
+    #[test]
+    fn the_readme_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../README.md");
+        let start = readme.find("```toml\n").expect("a toml block in the README") + 8;
+        let end = start + readme[start..].find("```").expect("closed block");
+        let cfg: RigConfig = slidetrack_core::parse_toml(&readme[start..end], "README.md").unwrap();
+        cfg.validate().unwrap();
+        assert_eq!(cfg.marker.dictionary, "DICT_6X6_250");
+    }
+
+    #[test]
+    fn bad_files_give_messages_naming_the_file_and_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("rig.toml");
+        std::fs::write(&path, "[sim]\ntactile_rate = 3\n").unwrap();
+        let e = format!("{:#}", RigConfig::load(Some(&path)).unwrap_err());
+        assert!(e.contains("rig.toml") && e.contains("tactile_rate"), "{e}");
+        std::fs::write(&path, "[geometry]\nsliding_axis_in_hand = [0.0, 0.0, 2.0]\n").unwrap();
+        let e = format!("{:#}", RigConfig::load(Some(&path)).unwrap_err());
+        assert!(e.contains("sliding_axis_in_hand"), "{e}");
+        let e = format!("{:#}", RigConfig::load(Some(&dir.path().join("none.toml"))).unwrap_err());
+        assert!(e.contains("none.toml"), "{e}");
+    }
+}

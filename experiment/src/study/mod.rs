@@ -1,0 +1,231 @@
+//! The experiments of thesis Sec. 6.3 on the simulated rig: per object, its
+//! sessions split 50/50 into training and testing sets; 13 dEKF models (per
+//! object: xyz, xy, z with the derivative and xy with the plain signal; xy on
+//! all objects) trained in parallel; Tables 6.1-6.4 with the thesis's rows
+//! and columns ([`Tables`]).
+
+mod tables;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, Result, bail};
+use serde_json::{Value, json};
+use slidetrack_estimators::dekf::{DekfModel, Measurement, Stage};
+use slidetrack_session::{ReadOptions, SESSION_METADATA, SessionInfo};
+
+pub use tables::{OBJECTS, Tables};
+
+use crate::dataset::{ChannelSet, GROUND_TRUTH_TOPIC, SessionData, TruthSource, expand, load};
+use crate::dekf_eval::score_session;
+use crate::dekf_run::{Scores, mean_scores, save_model};
+use crate::dekf_train::{TrainSpec, fit_sessions};
+use crate::pipeline::{DataSpec, collect, label};
+
+/// The training (`false`) and testing (`true`) sessions of each object.
+pub type Sets = BTreeMap<(&'static str, bool), Vec<SessionData>>;
+
+/// One model of the study.
+pub struct ModelSpec {
+    /// Its name (`box-xy`, `all-xy`).
+    pub name: String,
+    /// Tactile channels it reads.
+    pub channels: ChannelSet,
+    /// What its feature network reads.
+    pub measurement: Measurement,
+    /// Objects whose training sets it learns from.
+    pub trained_on: Vec<&'static str>,
+}
+
+/// The 13 models of the study (Tables 6.1-6.4).
+pub fn models() -> Vec<ModelSpec> {
+    let mut out = Vec::new();
+    for object in OBJECTS {
+        for (channels, measurement, suffix) in [
+            (ChannelSet::Xyz, Measurement::Derivative, "xyz"),
+            (ChannelSet::Xy, Measurement::Derivative, "xy"),
+            (ChannelSet::Z, Measurement::Derivative, "z"),
+            (ChannelSet::Xy, Measurement::Raw, "xy-raw"),
+        ] {
+            out.push(ModelSpec {
+                name: format!("{object}-{suffix}"),
+                channels,
+                measurement,
+                trained_on: vec![object],
+            });
+        }
+    }
+    out.push(ModelSpec {
+        name: "all-xy".into(),
+        channels: ChannelSet::Xy,
+        measurement: Measurement::Derivative,
+        trained_on: OBJECTS.to_vec(),
+    });
+    out
+}
+
+/// A study: where its sessions are, how many to collect, how to train.
+#[derive(Clone, Debug)]
+pub struct StudySpec {
+    /// Directory of sessions, grouped by the object in their metadata.
+    pub sessions: PathBuf,
+    /// Directory for the models.
+    pub out: PathBuf,
+    /// Sessions to collect per object when the directory has none of it.
+    pub collect: u32,
+    /// Duration of the sliding cycles of collected sessions (s).
+    pub duration_s: f64,
+    /// The training schedule.
+    pub schedule: Vec<Stage>,
+    /// Truth to train and score against.
+    pub truth: TruthSource,
+    /// Seed of the simulated rig and of the trainings.
+    pub seed: u64,
+    /// Trainings (and collections) run at the same time.
+    pub threads: usize,
+}
+
+/// The object of a session, from its metadata.
+fn object_of(path: &Path) -> Result<String> {
+    let info = SessionInfo::read(path, ReadOptions::default())?;
+    info.metadata
+        .get(SESSION_METADATA)
+        .and_then(|m| m.get("object"))
+        .cloned()
+        .with_context(|| format!("{}: no object in the session metadata", path.display()))
+}
+
+/// Whether a session has `topic`.
+fn has_topic(path: &Path, topic: &str) -> Result<bool> {
+    Ok(SessionInfo::read(path, ReadOptions::default())?.channels.iter().any(|c| c.topic == topic))
+}
+
+/// The training and testing sets of every object: the sessions of `s.sessions`
+/// split 50/50, collected and labelled as needed.
+pub fn data(s: &StudySpec, stop: &AtomicBool) -> Result<Sets> {
+    std::fs::create_dir_all(&s.sessions)
+        .with_context(|| format!("cannot create {}", s.sessions.display()))?;
+    let mut by_object: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
+    if let Ok(files) = expand(std::slice::from_ref(&s.sessions)) {
+        for f in files {
+            by_object.entry(object_of(&f)?).or_default().push(f);
+        }
+    }
+    let mut sets = BTreeMap::new();
+    for object in OBJECTS {
+        let mut files = by_object.remove(object).unwrap_or_default();
+        if files.is_empty() {
+            let spec = DataSpec {
+                object: object.into(),
+                seed: s.seed,
+                trials: 0..s.collect,
+                duration_s: s.duration_s,
+                camera: s.truth == TruthSource::GroundTruth,
+            };
+            eprintln!("{object}: collecting {} sessions into {}", s.collect, s.sessions.display());
+            files = collect(&spec, &s.sessions, s.threads, stop, &|_, report| {
+                if let Some(r) = report {
+                    eprintln!("  {}", r.summary_line());
+                }
+            })?;
+        }
+        if files.len() < 2 {
+            bail!(
+                "{object}: {} session(s) in {}; the study needs at least 2",
+                files.len(),
+                s.sessions.display()
+            );
+        }
+        if s.truth == TruthSource::GroundTruth {
+            let unlabelled: Vec<PathBuf> = files
+                .iter()
+                .filter(|f| !has_topic(f, GROUND_TRUTH_TOPIC).unwrap_or(false))
+                .cloned()
+                .collect();
+            if !unlabelled.is_empty() {
+                eprintln!("{object}: labelling {} sessions", unlabelled.len());
+                label(&unlabelled, s.threads, stop)?;
+            }
+        }
+        files.sort();
+        let half = files.len() / 2;
+        for (test, part) in [(false, &files[..half]), (true, &files[half..])] {
+            let loaded = part.iter().map(|f| load(f, Some(s.truth))).collect::<Result<Vec<_>>>()?;
+            sets.insert((object, test), loaded);
+        }
+    }
+    if stop.load(Ordering::SeqCst) {
+        bail!("interrupted; run the same command again to resume");
+    }
+    Ok(sets)
+}
+
+/// Mean scores of `model` on `sessions`.
+fn mean_of(model: &DekfModel, sessions: &[SessionData]) -> Result<Scores> {
+    let all = sessions.iter().map(|d| score_session(model, d)).collect::<Result<Vec<_>>>()?;
+    Ok(mean_scores(&all))
+}
+
+/// A trained model of the study and its scores.
+pub struct Outcome {
+    /// What was trained, for `tables.json`.
+    pub summary: Value,
+    /// `(tested object, training-set scores, testing-set scores)`.
+    pub scores: Vec<(&'static str, Option<Scores>, Scores)>,
+}
+
+/// Trains `spec` on its training sets (one thread), saves it under
+/// `s.out/models`, and scores it on the testing sets it is tabled for.
+pub fn train_and_score(spec: &ModelSpec, sets: &Sets, s: &StudySpec) -> Result<Outcome> {
+    let train: Vec<SessionData> =
+        spec.trained_on.iter().flat_map(|o| sets[&(*o, false)].iter().cloned()).collect();
+    let path = s.out.join("models").join(format!("{}.safetensors", spec.name));
+    let train_spec = TrainSpec {
+        channels: spec.channels,
+        measurement: spec.measurement,
+        schedule: s.schedule.clone(),
+        seed: s.seed,
+        threads: 1,
+        truth: s.truth,
+        ..TrainSpec::default()
+    };
+    let trained = fit_sessions(&train_spec, &train, &mut |_| {})?;
+    save_model(&trained.model, &path)?;
+    let last = trained.epochs.last().map_or([f64::NAN; 2], |e| e.rmse);
+    let model = &trained.model;
+    let mut scores = Vec::new();
+    let xy_derivative = spec.channels == ChannelSet::Xy && spec.measurement == Measurement::Derivative;
+    for object in OBJECTS {
+        let own = spec.trained_on == [object];
+        if !(own || xy_derivative) {
+            continue;
+        }
+        let test = mean_of(model, &sets[&(object, true)])?;
+        let train = if own && spec.channels == ChannelSet::Xyz {
+            Some(mean_of(model, &sets[&(object, false)])?)
+        } else {
+            None
+        };
+        scores.push((object, train, test));
+    }
+    eprintln!(
+        "model {:<14} {:>3} sessions, {:.1} s; training RMSE {:.3} cm, {:.3} cm/s",
+        spec.name,
+        train.len(),
+        trained.seconds,
+        last[0],
+        last[1]
+    );
+    let summary = json!({
+        "name": spec.name,
+        "file": path,
+        "trained_on": spec.trained_on,
+        "channels": spec.channels.name(),
+        "measurement": trained.model.meta.measurement.name(),
+        "sessions": train.len(),
+        "seconds": trained.seconds,
+        "final_training_rmse": {"position_cm": last[0], "velocity_cmps": last[1]},
+    });
+    Ok(Outcome { summary, scores })
+}

@@ -1,0 +1,355 @@
+//! The live trackers of `slidetrack track`: the dEKF on every tactile scan
+//! and a causal constant-velocity Kalman filter on the marker, recorded
+//! beside the trial (`/tactile/derivative`, `/estimate/dekf`,
+//! `/estimate/aruco`) and shown in the terminal; on the simulated rig, a
+//! vision tracker on the rendered in-hand RGB-D scene beside them.
+#![allow(non_snake_case)]
+
+use std::sync::{Arc, Mutex};
+
+use anyhow::Result;
+use nalgebra::SVector;
+use slidetrack_control::{Baseline, ObserverError, ProtocolEvent};
+use slidetrack_core::{Frame, Phase, SimTruth, TimeNs};
+use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_estimators::dekf::{DekfModel, DekfTracker};
+use slidetrack_estimators::kf::{CovarianceUpdate, Gaussian, innovation, predict, update};
+use slidetrack_session::{
+    ArucoEstimate, ChannelHandle, DekfEstimate, Logger, SlidingEstimate, TactileDerivative,
+};
+
+use crate::dataset::channel_indices;
+use crate::dekf_run::{CM, estimate_message, estimate_metadata};
+use crate::observer::TrialExtension;
+use crate::vision_inhand::InHandVision;
+
+/// The causal half of the ground truth's filter: the constant-velocity model
+/// of eq. (6.13) on the marker position, predicted to each camera frame and
+/// corrected with the marker when it was found and passes the gate.
+pub struct MarkerFilter {
+    params: CvSmootherParams,
+    /// Time (s) and belief after the last frame; `None` before the first detection.
+    last: Option<(f64, Gaussian<2>)>,
+}
+
+impl MarkerFilter {
+    /// A filter with the ground truth's parameters (SI units).
+    pub fn new(params: CvSmootherParams) -> MarkerFilter {
+        MarkerFilter { params, last: None }
+    }
+
+    /// One camera frame at `t_s` with the marker position `z_m` (m) when it
+    /// was found. Returns the belief after the frame (m, m/s), `None` until
+    /// the marker has been seen once.
+    pub fn step(&mut self, t_s: f64, z_m: Option<f64>) -> Option<Gaussian<2>> {
+        let z = z_m.filter(|z| z.is_finite());
+        let prior = match self.last {
+            None => {
+                z?;
+                self.params.initial()
+            }
+            Some((t0, belief)) => {
+                let dt = (t_s - t0).max(0.0);
+                predict(&belief, &CvSmootherParams::F(dt), &self.params.Q(dt))
+            }
+        };
+        let posterior = z.map_or(prior, |z| self.correct(&prior, z));
+        self.last = Some((t_s, posterior));
+        Some(posterior)
+    }
+
+    fn correct(&self, prior: &Gaussian<2>, z: f64) -> Gaussian<2> {
+        let z = SVector::<f64, 1>::new(z);
+        let (H, R) = (CvSmootherParams::H(), self.params.R());
+        if let (Some(gate), Ok(innov)) = (self.params.gate, innovation(prior, &z, &H, &R))
+            && innov.mahalanobis2 > gate.max_mahalanobis2
+        {
+            return *prior;
+        }
+        update(prior, &z, &H, &R, CovarianceUpdate::Joseph).map_or(*prior, |(post, _)| post)
+    }
+}
+
+/// Squared errors accumulated against the simulator's truth.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ErrorSums {
+    /// Steps compared.
+    pub n: usize,
+    /// Sum of squared position errors (cm^2).
+    pub position: f64,
+    /// Sum of squared velocity errors ((cm/s)^2).
+    pub velocity: f64,
+    /// Sum of squared truth positions: the zero-motion baseline (cm^2).
+    pub baseline: f64,
+}
+
+impl ErrorSums {
+    fn add(&mut self, estimate: [f64; 2], truth: [f64; 2]) {
+        self.n += 1;
+        self.position += (estimate[0] - truth[0]).powi(2);
+        self.velocity += (estimate[1] - truth[1]).powi(2);
+        self.baseline += truth[0] * truth[0];
+    }
+
+    /// `(position RMSE cm, velocity RMSE cm/s, baseline position RMSE cm)`.
+    pub fn rmse(&self) -> Option<[f64; 3]> {
+        let n = self.n as f64;
+        (self.n > 0)
+            .then(|| [(self.position / n).sqrt(), (self.velocity / n).sqrt(), (self.baseline / n).sqrt()])
+    }
+}
+
+/// What the trackers know now, and their errors so far.
+#[derive(Clone, Debug, Default)]
+pub struct LiveStatus {
+    /// Session time of the last estimate (s).
+    pub t_s: f64,
+    /// dEKF `(p, v)` (cm, cm/s), 0 where it started.
+    pub dekf: Option<[f64; 2]>,
+    /// Marker filter `(p, v)` (cm, cm/s), 0 at the first detection.
+    pub marker: Option<[f64; 2]>,
+    /// Simulator's truth `(p, v)` (cm, cm/s) relative to where the dEKF started.
+    pub truth: Option<[f64; 2]>,
+    /// dEKF steps.
+    pub dekf_steps: u64,
+    /// dEKF errors against the simulator's truth until the release.
+    pub dekf_errors: ErrorSums,
+    /// Marker filter errors against the simulator's truth until the release.
+    pub marker_errors: ErrorSums,
+    /// Vision tracker `(p, v)` along the sliding axis (cm, cm/s), relative to where the dEKF started.
+    pub vision: Option<[f64; 2]>,
+    /// Vision tracker errors against the simulator's truth until the release.
+    pub vision_errors: ErrorSums,
+}
+
+/// Shortest session time between two redraws of the live line (s).
+const DRAW_PERIOD_S: f64 = 0.1;
+
+/// The dEKF and the marker filter as a [`TrialExtension`].
+pub struct LiveTrackers {
+    logger: Logger,
+    dekf: DekfTracker,
+    channels: Vec<usize>,
+    values: Vec<f64>,
+    derivative_ch: ChannelHandle,
+    dekf_ch: ChannelHandle,
+    marker: Option<(MarkerFilter, ChannelHandle)>,
+    vision: Option<InHandVision>,
+    /// Latest simulator truth `(p, v)` (m, m/s) and its position when the dEKF started.
+    truth: Option<[f64; 2]>,
+    truth_origin: Option<f64>,
+    released: bool,
+    status: Arc<Mutex<LiveStatus>>,
+    display: Box<dyn FnMut(&str)>,
+    drawn_at: f64,
+}
+
+impl LiveTrackers {
+    /// Registers the estimate channels on `logger`; `marker` adds the marker
+    /// filter and `/estimate/aruco`. `status` is shared with the caller for
+    /// the summary; `display` receives the live line (about ten times per
+    /// second of session time).
+    pub fn new(
+        logger: &Logger,
+        model: &DekfModel,
+        model_name: &str,
+        marker: Option<CvSmootherParams>,
+        status: Arc<Mutex<LiveStatus>>,
+        display: Box<dyn FnMut(&str)>,
+    ) -> Result<LiveTrackers> {
+        let [derivative_meta, estimate_meta] = estimate_metadata(model, model_name)?;
+        let marker = match marker {
+            Some(params) => {
+                let meta = std::collections::BTreeMap::from([(
+                    "filter".to_string(),
+                    format!(
+                        "causal constant-velocity KF (eq. 6.13) on /aruco/detections: q_p {} m^2/s, q_v {} m^2/s^3, R {} m^2, gate {:?}",
+                        params.q_position_m2_per_s,
+                        params.q_velocity_m2_per_s3,
+                        params.r_m2,
+                        params.gate.map(|g| g.max_mahalanobis2)
+                    ),
+                )]);
+                Some((MarkerFilter::new(params), logger.register::<ArucoEstimate>(meta)?))
+            }
+            None => None,
+        };
+        let channels = channel_indices(&model.meta.channels)?;
+        Ok(LiveTrackers {
+            logger: logger.clone(),
+            dekf: DekfTracker::new(model),
+            values: vec![0.0; channels.len()],
+            channels,
+            derivative_ch: logger.register::<TactileDerivative>(derivative_meta)?,
+            dekf_ch: logger.register::<DekfEstimate>(estimate_meta)?,
+            marker,
+            vision: None,
+            truth: None,
+            truth_origin: None,
+            released: false,
+            status,
+            display,
+            drawn_at: f64::NEG_INFINITY,
+        })
+    }
+
+    /// Also runs a vision tracker on the simulated in-hand RGB-D scene at
+    /// each camera frame (it records its own channels).
+    pub fn with_vision(mut self, vision: InHandVision) -> LiveTrackers {
+        self.vision = Some(vision);
+        self
+    }
+
+    /// The vision tracker's step at a camera frame.
+    fn vision_step(&mut self, frame: &Frame) -> Result<(), ObserverError> {
+        let (Some(vision), Some([p, v])) = (self.vision.as_mut(), self.truth) else { return Ok(()) };
+        let step = vision.on_frame(frame.t, frame.sequence, p, v)?;
+        let (Some(p), Some(v)) = (step.position_m, step.velocity_mps) else { return Ok(()) };
+        let origin = self.truth_origin.unwrap_or(0.0);
+        let estimate = [(p - origin) * CM, v * CM];
+        let truth = self.truth_cm();
+        let released = self.released;
+        self.with_status(|s| {
+            s.vision = Some(estimate);
+            if let (Some(tr), false) = (truth, released) {
+                s.vision_errors.add(estimate, tr);
+            }
+        });
+        Ok(())
+    }
+
+    /// The simulator's truth relative to where the dEKF started (cm, cm/s).
+    fn truth_cm(&self) -> Option<[f64; 2]> {
+        let (t, o) = (self.truth?, self.truth_origin?);
+        Some([(t[0] - o) * CM, t[1] * CM])
+    }
+
+    fn draw(&mut self, s: &LiveStatus) {
+        if s.t_s - self.drawn_at < DRAW_PERIOD_S {
+            return;
+        }
+        self.drawn_at = s.t_s;
+        let fmt = |x: Option<[f64; 2]>| {
+            x.map_or_else(
+                || "      -                 ".to_string(),
+                |[p, v]| format!("{p:+6.2} cm {v:+6.2} cm/s"),
+            )
+        };
+        let mut line = format!("{:6.1} s  dEKF {}", s.t_s, fmt(s.dekf));
+        if self.marker.is_some() {
+            line += &format!("  | marker {}", fmt(s.marker));
+        }
+        if self.vision.is_some() {
+            line += &format!("  | vision {}", fmt(s.vision));
+        }
+        if s.truth.is_some() {
+            line += &format!("  | truth {}", fmt(s.truth));
+        }
+        (self.display)(&line);
+    }
+
+    fn with_status(&mut self, f: impl FnOnce(&mut LiveStatus)) {
+        let snapshot = match self.status.lock() {
+            Ok(mut s) => {
+                f(&mut s);
+                s.clone()
+            }
+            Err(_) => return,
+        };
+        self.draw(&snapshot);
+    }
+}
+
+impl TrialExtension for LiveTrackers {
+    fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
+        for (v, &i) in self.values.iter_mut().zip(&self.channels) {
+            *v = zeroed[i / 3][i % 3];
+        }
+        let Some(out) = self.dekf.on_scan(t.as_secs_f64(), &self.values) else { return Ok(()) };
+        let msg = TactileDerivative { values: out.measurement.clone() };
+        self.logger.log_json(&self.derivative_ch, t, t, 0, &msg)?;
+        self.logger.log_json(&self.dekf_ch, t, t, 0, &estimate_message(&out))?;
+        if self.truth_origin.is_none() {
+            self.truth_origin = self.truth.map(|x| x[0]);
+        }
+        let truth = self.truth_cm();
+        let released = self.released;
+        self.with_status(|s| {
+            s.t_s = out.t_s;
+            s.dekf = Some(out.mean);
+            s.truth = truth;
+            s.dekf_steps += 1;
+            if let (Some(tr), false) = (truth, released) {
+                s.dekf_errors.add(out.mean, tr);
+            }
+        });
+        Ok(())
+    }
+
+    fn on_frame(&mut self, frame: &Frame, position_on_axis_m: Option<f64>) -> Result<(), ObserverError> {
+        self.vision_step(frame)?;
+        let Some((filter, ch)) = self.marker.as_mut() else { return Ok(()) };
+        let Some(b) = filter.step(frame.t.as_secs_f64(), position_on_axis_m) else { return Ok(()) };
+        let msg = ArucoEstimate(SlidingEstimate {
+            position: b.mean[0],
+            velocity: b.mean[1],
+            covariance: [[b.cov[(0, 0)], b.cov[(0, 1)]], [b.cov[(1, 0)], b.cov[(1, 1)]]],
+        });
+        self.logger.log_json(ch, frame.t, frame.t, 0, &msg)?;
+        let estimate = [b.mean[0] * CM, b.mean[1] * CM];
+        let truth = self.truth_cm();
+        let released = self.released;
+        self.with_status(|s| {
+            s.marker = Some(estimate);
+            if let (Some(tr), false) = (truth, released) {
+                s.marker_errors.add(estimate, tr);
+            }
+        });
+        Ok(())
+    }
+
+    fn on_truth(&mut self, truth: &SimTruth) {
+        self.truth = Some([truth.position_m, truth.velocity_mps]);
+    }
+
+    fn on_event(&mut self, _t: TimeNs, event: &ProtocolEvent) {
+        if matches!(event.phase, Phase::Release | Phase::Aborted | Phase::Done) {
+            self.released = true;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_marker_filter_starts_at_the_first_detection_and_follows_a_constant_velocity() {
+        let params =
+            CvSmootherParams { gate: None, ..slidetrack_calibration::ground_truth::default_params() };
+        let mut f = MarkerFilter::new(params);
+        assert!(f.step(0.0, None).is_none(), "nothing before the first detection");
+        let mut last = None;
+        for k in 1..300 {
+            let t = k as f64 / 30.0;
+            // 1 cm/s, one frame in five missed.
+            let z = (k % 5 != 0).then_some(0.01 * t);
+            last = f.step(t, z);
+        }
+        let b = last.expect("a belief after the first detection");
+        assert!((b.mean[1] - 0.01).abs() < 5e-4, "velocity {}", b.mean[1]);
+        assert!((b.mean[0] - 0.01 * 299.0 / 30.0).abs() < 5e-4, "position {}", b.mean[0]);
+    }
+
+    #[test]
+    fn the_marker_filter_rejects_an_outlier_and_predicts_through_nan() {
+        let mut f = MarkerFilter::new(slidetrack_calibration::ground_truth::default_params());
+        for k in 0..60 {
+            f.step(k as f64 / 30.0, Some(0.0));
+        }
+        let jump = f.step(2.0, Some(0.05)).expect("belief");
+        assert!(jump.mean[0].abs() < 1e-4, "a 5 cm jump is an outlier: {}", jump.mean[0]);
+        let nan = f.step(2.1, Some(f64::NAN)).expect("belief");
+        assert!(nan.mean.iter().all(|x| x.is_finite()));
+    }
+}

@@ -1,0 +1,52 @@
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+//!
+//! - [`Recorder`] writes a session on its own thread (zstd chunks closed at
+//!   least every second, so a killed process leaves a readable prefix).
+//! - [`SessionInfo`], [`MessageReader`] and [`read_json`] read one back with
+//!   bounded memory; [`export_csv`] flattens a channel to CSV.
+//! - The message types of the channels are in [`messages`] and [`vision`];
+//!   the format is documented in `docs/session-format.md`.
+
+mod csv;
+mod error;
+pub mod estimates;
+pub mod ground_truth;
+pub mod messages;
+mod metadata;
+mod reader;
+mod recorder;
+mod rewrite;
+mod scan;
+mod schema;
+mod summary;
+pub mod vision;
+pub mod vision_pose;
+mod writer;
+mod writer_thread;
+
+#[cfg(test)]
+mod tests;
+
+pub use csv::{CsvSummary, export_csv};
+pub use error::SessionError;
+pub use estimates::{
+    ArucoEstimate, DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate, TactileDerivative,
+};
+pub use ground_truth::{GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding};
+pub use messages::{
+    ChannelMessage, ChannelSpec, FingerSetpoint, GraspControl, HandCommand, ProtocolEvent, RecorderStats,
+    SimTruth, TactileDecoder, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz, channel_specs,
+};
+pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
+pub use reader::{ChannelDesc, MessageReader, RawMessage, ReadOptions, read_channel, read_json};
+pub use recorder::Recorder;
+pub use rewrite::{NewChannel, NewMessage, RewriteReport, rewrite_session};
+pub use schema::JSON_SCHEMA_DIALECT;
+pub use summary::{AttachmentSummary, ChannelSummary, SessionInfo};
+pub use vision::{ArucoDetection, CameraCalibration, CompressedImage, FoxgloveTime, Quaternion};
+pub use vision_pose::{
+    FrameTransform, ObjectTruth, PoseInFrame, RawImage, RgbdCalibration, RgbdColor, RgbdDepth, RgbdMask,
+    VelocityEstimate, VisionMask, VisionPose,
+};
+pub use writer::{ChannelHandle, Logger, RecorderOptions};

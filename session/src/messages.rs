@@ -1,0 +1,436 @@
+//! The messages of the numeric session channels: one type per channel, each
+//! with its topic, schema name and JSON Schema (see [`ChannelMessage`]).
+//!
+//! Field names are a stable interface, documented in `docs/session-format.md`.
+//! JSON has no NaN or infinity: serde_json writes non-finite numbers as `null`,
+//! which then fails to decode, so log finite values only.
+
+use std::collections::BTreeMap;
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use slidetrack_core::{Finger, PerFinger, TactileInfo, TactileSample, TaxelRef};
+
+use super::schema::{self, boolean, number, per_finger, string, uint, xyz};
+
+/// Schema encoding of every JSON channel.
+pub const SCHEMA_ENCODING_JSONSCHEMA: &str = "jsonschema";
+/// Message encoding of every JSON channel.
+pub const MESSAGE_ENCODING_JSON: &str = "json";
+
+/// A message type with its own channel: JSON-encoded, described by a JSON Schema.
+pub trait ChannelMessage: Serialize + DeserializeOwned {
+    /// The channel's topic, for example `/tactile/raw`.
+    const TOPIC: &'static str;
+    /// The schema name, for example `slidetrack.TactileRaw`.
+    const SCHEMA_NAME: &'static str;
+    /// The JSON Schema describing exactly the serialized message.
+    fn json_schema() -> Value;
+}
+
+/// The topic, schema name and schema of one channel, for listings and docs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChannelSpec {
+    /// The channel's topic.
+    pub topic: &'static str,
+    /// The schema name.
+    pub schema_name: &'static str,
+    /// The JSON Schema.
+    pub schema: Value,
+}
+
+impl ChannelSpec {
+    /// The spec of `T`'s channel.
+    pub fn of<T: ChannelMessage>() -> ChannelSpec {
+        ChannelSpec { topic: T::TOPIC, schema_name: T::SCHEMA_NAME, schema: T::json_schema() }
+    }
+}
+
+/// Every channel slidetrack records, in the order of `docs/session-format.md`.
+pub fn channel_specs() -> Vec<ChannelSpec> {
+    use super::vision::{ArucoDetection, CameraCalibration, CompressedImage};
+    vec![
+        ChannelSpec::of::<TactileRaw>(),
+        ChannelSpec::of::<TactileTare>(),
+        ChannelSpec::of::<TactileZeroed>(),
+        ChannelSpec::of::<TactileDecoder>(),
+        ChannelSpec::of::<GraspControl>(),
+        ChannelSpec::of::<HandCommand>(),
+        ChannelSpec::of::<CompressedImage>(),
+        ChannelSpec::of::<CameraCalibration>(),
+        ChannelSpec::of::<ArucoDetection>(),
+        ChannelSpec::of::<SimTruth>(),
+        ChannelSpec::of::<super::ground_truth::GroundTruthSliding>(),
+        ChannelSpec::of::<super::ground_truth::GroundTruthMeasurement>(),
+        ChannelSpec::of::<super::estimates::TactileDerivative>(),
+        ChannelSpec::of::<super::estimates::DekfEstimate>(),
+        ChannelSpec::of::<super::estimates::ArucoEstimate>(),
+        ChannelSpec::of::<ProtocolEvent>(),
+        ChannelSpec::of::<RecorderStats>(),
+    ]
+    .into_iter()
+    .chain(super::vision_pose::vision_channel_specs())
+    .collect()
+}
+
+/// Three components along the x, y and z axes of a tactile module's frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Xyz<T> {
+    /// Along x.
+    pub x: T,
+    /// Along y.
+    pub y: T,
+    /// Along z (normal to the fingertip surface).
+    pub z: T,
+}
+
+impl<T: Copy> Xyz<T> {
+    /// From `[x, y, z]`.
+    pub fn from_array([x, y, z]: [T; 3]) -> Xyz<T> {
+        Xyz { x, y, z }
+    }
+
+    /// As `[x, y, z]`.
+    pub fn to_array(self) -> [T; 3] {
+        [self.x, self.y, self.z]
+    }
+}
+
+/// `/tactile/raw`: one scan of the three fingertip modules, raw counts as the
+/// device sent them (never tared, never overwritten).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TactileRaw {
+    /// The device's own scan counter.
+    pub sequence: u64,
+    /// Raw counts per finger and axis.
+    #[serde(flatten)]
+    pub counts: PerFinger<Xyz<u16>>,
+}
+
+impl From<&TactileSample> for TactileRaw {
+    fn from(s: &TactileSample) -> TactileRaw {
+        TactileRaw { sequence: s.sequence, counts: PerFinger::from_array(s.raw.map(Xyz::from_array)) }
+    }
+}
+
+impl ChannelMessage for TactileRaw {
+    const TOPIC: &'static str = "/tactile/raw";
+    const SCHEMA_NAME: &'static str = "slidetrack.TactileRaw";
+    fn json_schema() -> Value {
+        let mut props = vec![("sequence", uint("the device's scan counter", u64::MAX))];
+        props.extend(schema::finger_properties(|f| {
+            xyz(&format!("raw counts of the {f} module"), |a| {
+                uint(&format!("raw {a} count"), u16::MAX.into())
+            })
+        }));
+        schema::message(Self::SCHEMA_NAME, "One scan of the fingertip modules, raw counts", props)
+    }
+}
+
+/// Channel metadata key of `/tactile/raw` holding the [`TaxelLayout`] as JSON.
+pub const TAXEL_LAYOUT_KEY: &str = "taxel_layout";
+
+/// The layout of the tactile channels, stored as JSON in the `/tactile/raw`
+/// channel metadata under [`TAXEL_LAYOUT_KEY`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TaxelLayout {
+    /// The device that produced the counts (`sim`, `/dev/ttyACM0`, `can0`).
+    pub device: String,
+    /// Nominal scan rate (Hz).
+    pub rate_hz: f64,
+    /// Finger names, in the order of every per-finger array.
+    pub fingers: Vec<String>,
+    /// Axis names of each module, in the order of raw arrays.
+    pub axes: Vec<String>,
+    /// Module and taxel per finger.
+    pub taxels: PerFinger<TaxelRef>,
+}
+
+impl TaxelLayout {
+    /// The layout of `info`'s device, with one module per finger (module
+    /// `0, 1, 2` for thumb, index, middle, taxel 0 each) unless `taxels` says otherwise.
+    pub fn new(info: &TactileInfo, taxels: Option<PerFinger<TaxelRef>>) -> TaxelLayout {
+        TaxelLayout {
+            device: info.device.clone(),
+            rate_hz: info.rate_hz,
+            fingers: Finger::ALL.iter().map(|f| f.name().to_string()).collect(),
+            axes: slidetrack_core::AXES.iter().map(|a| a.to_string()).collect(),
+            taxels: taxels
+                .unwrap_or_else(|| PerFinger::from_fn(|f| TaxelRef { module: f.index() as u32, taxel: 0 })),
+        }
+    }
+
+    /// The channel metadata map holding this layout.
+    pub fn channel_metadata(&self) -> BTreeMap<String, String> {
+        // Serializing plain strings and numbers to a String cannot fail.
+        let json = serde_json::to_string(self).unwrap_or_default();
+        BTreeMap::from([(TAXEL_LAYOUT_KEY.to_string(), json)])
+    }
+
+    /// The layout stored in channel metadata: `None` without the key, an
+    /// error when its JSON does not decode.
+    pub fn from_channel_metadata(
+        metadata: &BTreeMap<String, String>,
+    ) -> Option<Result<TaxelLayout, serde_json::Error>> {
+        metadata.get(TAXEL_LAYOUT_KEY).map(|s| serde_json::from_str(s))
+    }
+}
+
+/// `/tactile/tare`: the baseline was (re)zeroed. Later `/tactile/zeroed`
+/// messages subtract this baseline.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TactileTare {
+    /// Scans averaged into the baseline.
+    pub samples: u32,
+    /// Baseline per finger and axis (counts).
+    pub baseline: PerFinger<Xyz<f64>>,
+}
+
+impl ChannelMessage for TactileTare {
+    const TOPIC: &'static str = "/tactile/tare";
+    const SCHEMA_NAME: &'static str = "slidetrack.TactileTare";
+    fn json_schema() -> Value {
+        let baseline = per_finger("baseline per finger (counts)", |f| {
+            xyz(&format!("baseline of the {f} module (counts)"), |a| {
+                number(&format!("{a} baseline (counts)"))
+            })
+        });
+        schema::message(
+            Self::SCHEMA_NAME,
+            "The tactile baseline was (re)zeroed",
+            vec![
+                ("samples", uint("scans averaged into the baseline", u32::MAX.into())),
+                ("baseline", baseline),
+            ],
+        )
+    }
+}
+
+/// `/tactile/zeroed`: one scan minus the current baseline (counts).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct TactileZeroed {
+    /// Counts minus baseline, per finger and axis.
+    pub counts: PerFinger<Xyz<f64>>,
+}
+
+impl ChannelMessage for TactileZeroed {
+    const TOPIC: &'static str = "/tactile/zeroed";
+    const SCHEMA_NAME: &'static str = "slidetrack.TactileZeroed";
+    fn json_schema() -> Value {
+        let props = schema::finger_properties(|f| {
+            xyz(&format!("{f} module, counts minus baseline"), |a| number(&format!("{a} (counts)")))
+        });
+        schema::message(Self::SCHEMA_NAME, "One scan minus the baseline (counts)", props)
+    }
+}
+
+/// `/tactile/decoder`: the counters of the tactile device's decoder (real
+/// rigs and decoded captures), see [`slidetrack_core::DecoderCounters`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TactileDecoder {
+    /// Frames decoded intact.
+    pub frames: u64,
+    /// Frames that arrived in sync but failed their CRC.
+    pub crc_errors: u64,
+    /// Times the decoder lost the frame boundaries and found them again.
+    pub resyncs: u64,
+    /// Bytes discarded while resynchronising.
+    pub bytes_skipped: u64,
+    /// Breaks in a module's sequence counter.
+    pub gaps: u64,
+    /// Scans dropped because a frame (or a mapped taxel) was missing.
+    pub incomplete_scans: u64,
+    /// Taxel samples the sensor marked invalid.
+    pub invalid_samples: u64,
+}
+
+impl From<&slidetrack_core::DecoderCounters> for TactileDecoder {
+    fn from(c: &slidetrack_core::DecoderCounters) -> TactileDecoder {
+        TactileDecoder {
+            frames: c.frames,
+            crc_errors: c.crc_errors,
+            resyncs: c.resyncs,
+            bytes_skipped: c.bytes_skipped,
+            gaps: c.gaps,
+            incomplete_scans: c.incomplete_scans,
+            invalid_samples: c.invalid_samples,
+        }
+    }
+}
+
+impl ChannelMessage for TactileDecoder {
+    const TOPIC: &'static str = "/tactile/decoder";
+    const SCHEMA_NAME: &'static str = "slidetrack.TactileDecoder";
+    fn json_schema() -> Value {
+        let count = |d: &str| uint(d, u64::MAX);
+        schema::message(
+            Self::SCHEMA_NAME,
+            "Counters of the tactile decoder since the device was opened",
+            vec![
+                ("frames", count("frames decoded intact")),
+                ("crc_errors", count("frames that arrived in sync but failed their CRC")),
+                ("resyncs", count("times the decoder lost and found the frame boundaries")),
+                ("bytes_skipped", count("bytes discarded while resynchronising")),
+                ("gaps", count("breaks in a module's sequence counter")),
+                ("incomplete_scans", count("scans dropped because a frame or mapped taxel was missing")),
+                ("invalid_samples", count("taxel samples the sensor marked invalid")),
+            ],
+        )
+    }
+}
+
+/// Desired and achieved baseline-subtracted normal (z) value of one finger (counts).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FingerSetpoint {
+    /// What the controller asks for (counts).
+    pub desired: f64,
+    /// What the sensor measured (counts).
+    pub achieved: f64,
+}
+
+/// `/control/grasp`: one step of the grasp controller.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GraspControl {
+    /// The controller's phase (`approach`, `hold`, `slide`, ...).
+    pub phase: String,
+    /// The generalised grasp strength reference tau_g,des (counts).
+    pub reference: f64,
+    /// Desired and achieved z per finger (counts, baseline subtracted).
+    #[serde(flatten)]
+    pub fingers: PerFinger<FingerSetpoint>,
+}
+
+impl ChannelMessage for GraspControl {
+    const TOPIC: &'static str = "/control/grasp";
+    const SCHEMA_NAME: &'static str = "slidetrack.GraspControl";
+    fn json_schema() -> Value {
+        let mut props = vec![
+            ("phase", string("the controller's phase")),
+            ("reference", number("generalised grasp strength reference tau_g,des (counts)")),
+        ];
+        props.extend(schema::finger_properties(|f| {
+            schema::closed_object(
+                &format!("{f}: baseline-subtracted z (counts)"),
+                vec![("desired", number("desired z (counts)")), ("achieved", number("measured z (counts)"))],
+            )
+        }));
+        schema::message(Self::SCHEMA_NAME, "One step of the grasp controller", props)
+    }
+}
+
+/// `/hand/command`: the voltages sent to the hand.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HandCommand {
+    /// Command per finger (V).
+    #[serde(flatten)]
+    pub volts: PerFinger<f64>,
+    /// True when a command was clipped to the actuator's range.
+    pub saturated: bool,
+}
+
+impl ChannelMessage for HandCommand {
+    const TOPIC: &'static str = "/hand/command";
+    const SCHEMA_NAME: &'static str = "slidetrack.HandCommand";
+    fn json_schema() -> Value {
+        let mut props = schema::finger_properties(|f| number(&format!("{f} command (V)")));
+        props.push(("saturated", boolean("a command was clipped to the actuator's range")));
+        schema::message(Self::SCHEMA_NAME, "Voltages sent to the hand", props)
+    }
+}
+
+/// `/sim/truth`: the simulator's ground truth (simulated sessions only).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SimTruth {
+    /// Object position along the sliding axis (m).
+    pub position: f64,
+    /// Object velocity along the sliding axis (m/s).
+    pub velocity: f64,
+    /// True while the object slides relative to the fingers.
+    pub sliding: bool,
+    /// True while the object rests on its support.
+    pub supported: bool,
+    /// Normal force per finger (N).
+    pub normal_force: PerFinger<f64>,
+    /// Friction force per finger along the sliding axis (N).
+    pub friction_force: PerFinger<f64>,
+}
+
+impl ChannelMessage for SimTruth {
+    const TOPIC: &'static str = "/sim/truth";
+    const SCHEMA_NAME: &'static str = "slidetrack.SimTruth";
+    fn json_schema() -> Value {
+        schema::message(
+            Self::SCHEMA_NAME,
+            "Simulator ground truth",
+            vec![
+                ("position", number("object position along the sliding axis (m)")),
+                ("velocity", number("object velocity along the sliding axis (m/s)")),
+                ("sliding", boolean("the object slides relative to the fingers")),
+                ("supported", boolean("the object rests on its support")),
+                (
+                    "normal_force",
+                    per_finger("normal force (N)", |f| number(&format!("{f} normal force (N)"))),
+                ),
+                (
+                    "friction_force",
+                    per_finger("friction force along the sliding axis (N)", |f| {
+                        number(&format!("{f} friction force (N)"))
+                    }),
+                ),
+            ],
+        )
+    }
+}
+
+/// `/protocol/events`: a step of the trial protocol, or an abort.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ProtocolEvent {
+    /// The protocol phase entered or running.
+    pub phase: String,
+    /// What happened, for people.
+    pub message: String,
+    /// True when this event aborts the trial.
+    pub abort: bool,
+}
+
+impl ChannelMessage for ProtocolEvent {
+    const TOPIC: &'static str = "/protocol/events";
+    const SCHEMA_NAME: &'static str = "slidetrack.ProtocolEvent";
+    fn json_schema() -> Value {
+        schema::message(
+            Self::SCHEMA_NAME,
+            "A step of the trial protocol",
+            vec![
+                ("phase", string("protocol phase")),
+                ("message", string("what happened")),
+                ("abort", boolean("this event aborts the trial")),
+            ],
+        )
+    }
+}
+
+/// `/recorder/stats`: written once by the recorder when it finishes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RecorderStats {
+    /// Messages written before this one.
+    pub messages_written: u64,
+    /// Images dropped because the recorder's queue was full.
+    pub images_dropped: u64,
+}
+
+impl ChannelMessage for RecorderStats {
+    const TOPIC: &'static str = "/recorder/stats";
+    const SCHEMA_NAME: &'static str = "slidetrack.RecorderStats";
+    fn json_schema() -> Value {
+        schema::message(
+            Self::SCHEMA_NAME,
+            "Recorder statistics, written when the recording finishes",
+            vec![
+                ("messages_written", uint("messages written before this one", u64::MAX)),
+                ("images_dropped", uint("images dropped because the queue was full", u64::MAX)),
+            ],
+        )
+    }
+}

@@ -1,0 +1,184 @@
+//! Reading messages back, in file order, with bounded memory.
+
+use std::collections::{BTreeMap, HashSet};
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use serde::de::DeserializeOwned;
+use slidetrack_core::TimeNs;
+
+use super::error::SessionError;
+use super::messages::ChannelMessage;
+use super::scan::{Event, Scanner, corrupt, footer_summary_start, open_session, truncated_error};
+
+/// How to read a session file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Read a file whose writer died (no summary, no footer) up to its last
+    /// complete chunk, and stop quietly at a corrupt record. Without it such
+    /// files fail with [`SessionError::Truncated`] or [`SessionError::Corrupt`].
+    pub recover: bool,
+}
+
+impl ReadOptions {
+    /// Options that recover truncated files.
+    pub fn recover() -> ReadOptions {
+        ReadOptions { recover: true }
+    }
+}
+
+/// A channel as declared in the file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ChannelDesc {
+    /// The channel id in the file.
+    pub id: u16,
+    /// The topic, for example `/tactile/raw`.
+    pub topic: String,
+    /// Schema name, empty when the channel has none.
+    pub schema_name: String,
+    /// Schema encoding (`jsonschema`), empty when the channel has none.
+    pub schema_encoding: String,
+    /// Message encoding (`json`).
+    pub message_encoding: String,
+    /// Channel metadata (the taxel layout on `/tactile/raw`).
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// One message as stored.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RawMessage {
+    /// The channel it was published on.
+    pub channel: Arc<ChannelDesc>,
+    /// Host acquisition time on the session clock.
+    pub log_time: TimeNs,
+    /// The device's timestamp, or `log_time` when the device has none.
+    pub publish_time: TimeNs,
+    /// The device's frame counter (low 32 bits).
+    pub sequence: u32,
+    /// The payload (JSON for slidetrack's channels).
+    pub data: Vec<u8>,
+}
+
+impl RawMessage {
+    /// The channel's topic.
+    pub fn topic(&self) -> &str {
+        &self.channel.topic
+    }
+}
+
+/// Iterates over the messages of a session file in file order (log-time
+/// order for files written by [`super::Recorder`]), holding one chunk at a time.
+///
+/// # Contract
+/// - `open` fails when the file is missing, empty, not MCAP, or (without
+///   `recover`) truncated; the truncated error counts the readable messages.
+/// - Without `recover`, a corrupt record yields one `Err` and ends the
+///   iteration. With `recover`, reading stops quietly at the first corrupt or
+///   incomplete chunk and [`MessageReader::truncated`] turns true.
+pub struct MessageReader {
+    scan: Scanner<File>,
+    recover: bool,
+    truncated: bool,
+}
+
+impl MessageReader {
+    /// Opens `path`, yielding only messages on `topics` (every topic when empty).
+    pub fn open(path: impl AsRef<Path>, topics: &[&str], options: ReadOptions) -> Result<Self, SessionError> {
+        let path = path.as_ref();
+        let (mut file, size) = open_session(path)?;
+        let read_err = |source| SessionError::Read { path: path.to_path_buf(), source };
+        let complete = footer_summary_start(&mut file, size).map_err(read_err)?.is_some();
+        if !complete && !options.recover {
+            return Err(truncated_error(path, file));
+        }
+        let topics: Option<HashSet<String>> =
+            (!topics.is_empty()).then(|| topics.iter().map(|t| t.to_string()).collect());
+        Ok(MessageReader {
+            scan: Scanner::new(path, file, topics, true),
+            recover: options.recover,
+            truncated: false,
+        })
+    }
+
+    /// True once reading stopped early at an incomplete or corrupt chunk
+    /// (only with `recover`).
+    pub fn truncated(&self) -> bool {
+        self.truncated
+    }
+
+    /// The channels declared so far (all of them once the iteration is over).
+    pub fn channels(&self) -> impl Iterator<Item = &ChannelDesc> {
+        self.scan.channels.values().map(|c| c.as_ref())
+    }
+
+    /// The file being read.
+    pub fn path(&self) -> &Path {
+        &self.scan.path
+    }
+}
+
+impl Iterator for MessageReader {
+    type Item = Result<RawMessage, SessionError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            match self.scan.next_event() {
+                Ok(Some(Event::Message(m))) => return Some(Ok(m)),
+                Ok(Some(_)) => {}
+                Ok(None) => return None,
+                Err(e) if self.recover => {
+                    tracing::debug!("{}: reading stopped: {}", self.scan.path.display(), e.detail);
+                    self.truncated = true;
+                    return None;
+                }
+                Err(e) => return Some(Err(corrupt(&self.scan.path, e))),
+            }
+        }
+    }
+}
+
+/// Every message on `topic`, decoded from JSON, with its log time.
+pub fn read_json<T: DeserializeOwned>(
+    path: impl AsRef<Path>,
+    topic: &str,
+    options: ReadOptions,
+) -> Result<Vec<(TimeNs, T)>, SessionError> {
+    let path = path.as_ref();
+    let mut reader = MessageReader::open(path, &[topic], options)?;
+    let mut out = Vec::new();
+    for message in reader.by_ref() {
+        let m = message?;
+        let value = serde_json::from_slice(&m.data).map_err(|source| SessionError::Decode {
+            path: path.to_path_buf(),
+            topic: topic.to_string(),
+            log_time: m.log_time,
+            source,
+        })?;
+        out.push((m.log_time, value));
+    }
+    if out.is_empty() && !reader.channels().any(|c| c.topic == topic) {
+        return Err(no_such_topic(path.to_path_buf(), topic, reader.channels()));
+    }
+    Ok(out)
+}
+
+/// Every message of `T`'s channel, with its log time.
+pub fn read_channel<T: ChannelMessage>(
+    path: impl AsRef<Path>,
+    options: ReadOptions,
+) -> Result<Vec<(TimeNs, T)>, SessionError> {
+    read_json(path, T::TOPIC, options)
+}
+
+pub(crate) fn no_such_topic<'a>(
+    path: PathBuf,
+    topic: &str,
+    channels: impl Iterator<Item = &'a ChannelDesc>,
+) -> SessionError {
+    let mut topics: Vec<&str> = channels.map(|c| c.topic.as_str()).collect();
+    topics.sort_unstable();
+    topics.dedup();
+    let available = if topics.is_empty() { "no channels".to_string() } else { topics.join(", ") };
+    SessionError::NoSuchTopic { path, topic: topic.to_string(), available }
+}

@@ -1,0 +1,341 @@
+//! The producers' side of recording: the [`Logger`] handle, the channel
+//! registry and the state shared with the writer thread.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::time::Duration;
+
+use crossbeam_channel::{Sender, TrySendError};
+use serde::Serialize;
+use slidetrack_core::TimeNs;
+
+use super::error::SessionError;
+use super::messages::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
+use super::writer_thread::Command;
+
+/// Tuning of a [`Recorder`](super::Recorder). The defaults suit a 1 kHz tactile stream plus a
+/// 30 fps camera.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecorderOptions {
+    /// A chunk is closed once its uncompressed size exceeds this (bytes).
+    pub chunk_size_bytes: u64,
+    /// A chunk is closed (and handed to the OS) at the latest this long after
+    /// its first record, so a killed process loses at most this much.
+    pub flush_interval: Duration,
+    /// Records the queue holds before [`Logger::log`] blocks.
+    pub queue_capacity: usize,
+    /// Payload bytes of lossy records (images) the queue may hold; beyond
+    /// this [`Logger::log_lossy`] drops.
+    pub lossy_queue_bytes: usize,
+    /// Replace an existing file at the path. Off by default: recording over
+    /// an earlier session fails instead.
+    pub overwrite: bool,
+    /// zstd level. 1 (the default) is the fastest standard level, and on
+    /// tactile JSON it also compresses better than zstd's default (0, meaning 3).
+    pub compression_level: u32,
+}
+
+impl Default for RecorderOptions {
+    fn default() -> Self {
+        RecorderOptions {
+            chunk_size_bytes: 4 << 20,
+            flush_interval: Duration::from_secs(1),
+            queue_capacity: 16_384,
+            lossy_queue_bytes: 64 << 20,
+            overwrite: false,
+            compression_level: 1,
+        }
+    }
+}
+
+/// A registered channel. Cheap to clone; valid only with the recorder that made it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ChannelHandle {
+    pub(crate) id: u16,
+    topic: Arc<str>,
+}
+
+impl ChannelHandle {
+    /// The channel's topic.
+    pub fn topic(&self) -> &str {
+        &self.topic
+    }
+}
+
+/// Everything that defines a channel.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct ChannelRegistration {
+    pub(crate) topic: String,
+    pub(crate) schema_name: String,
+    pub(crate) schema_encoding: String,
+    pub(crate) schema_data: Vec<u8>,
+    pub(crate) message_encoding: String,
+    pub(crate) metadata: BTreeMap<String, String>,
+}
+
+/// State shared by the producers and the writer thread.
+pub(crate) struct Shared {
+    pub(crate) path: PathBuf,
+    failed: AtomicBool,
+    failure: Mutex<Option<(Option<std::io::ErrorKind>, String)>>,
+    pub(crate) images_dropped: AtomicU64,
+    pub(crate) lossy_bytes_queued: AtomicUsize,
+    lossy_limit: usize,
+    registry: Mutex<Registry>,
+    /// Held by a test to stall the writer thread before its next record.
+    #[cfg(test)]
+    pub(crate) gate: Mutex<()>,
+}
+
+#[derive(Default)]
+pub(crate) struct Registry {
+    next_id: u32,
+    by_topic: HashMap<String, (ChannelHandle, ChannelRegistration)>,
+}
+
+pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+impl Shared {
+    pub(crate) fn new(path: PathBuf, lossy_limit: usize) -> Shared {
+        Shared {
+            path,
+            failed: AtomicBool::new(false),
+            failure: Mutex::new(None),
+            images_dropped: AtomicU64::new(0),
+            lossy_bytes_queued: AtomicUsize::new(0),
+            lossy_limit,
+            registry: Mutex::new(Registry::default()),
+            #[cfg(test)]
+            gate: Mutex::new(()),
+        }
+    }
+
+    /// Records the first write failure; later calls report it.
+    pub(crate) fn fail(&self, kind: Option<std::io::ErrorKind>, detail: String) {
+        let mut f = lock(&self.failure);
+        if f.is_none() {
+            *f = Some((kind, detail));
+        }
+        self.failed.store(true, Ordering::Release);
+    }
+
+    /// The recorded failure, as an error.
+    pub(crate) fn failure(&self) -> Option<SessionError> {
+        if !self.failed.load(Ordering::Acquire) {
+            return None;
+        }
+        let (kind, detail) = lock(&self.failure).clone()?;
+        Some(SessionError::Write { path: self.path.clone(), kind, detail })
+    }
+
+    fn check(&self) -> Result<(), SessionError> {
+        self.failure().map_or(Ok(()), Err)
+    }
+
+    pub(crate) fn closed(&self) -> SessionError {
+        self.failure().unwrap_or_else(|| SessionError::Closed {
+            path: self.path.clone(),
+            detail: "its writer thread has exited".into(),
+        })
+    }
+
+    /// Reserves the next channel id (1, 2, ...).
+    pub(crate) fn next_channel_id(&self, topic: &str) -> Result<u16, SessionError> {
+        let mut reg = lock(&self.registry);
+        self.alloc_id(&mut reg, topic)
+    }
+
+    fn alloc_id(&self, reg: &mut Registry, topic: &str) -> Result<u16, SessionError> {
+        reg.next_id += 1;
+        u16::try_from(reg.next_id).map_err(|_| SessionError::Channel {
+            path: self.path.clone(),
+            topic: topic.to_string(),
+            detail: "more than 65535 channels".into(),
+        })
+    }
+}
+
+/// A cloneable handle for producer threads: everything a [`Recorder`](super::Recorder) offers
+/// except finishing. Calls fail with [`SessionError::Closed`] once the
+/// recorder has finished.
+#[derive(Clone)]
+pub struct Logger {
+    pub(crate) tx: Sender<Command>,
+    pub(crate) shared: Arc<Shared>,
+}
+
+impl Logger {
+    /// Registers a channel and returns its handle. Registering the same topic
+    /// again with identical arguments returns the same handle; with different
+    /// arguments it fails. An empty `schema_name` and `schema_encoding` mean no schema.
+    pub fn register_channel(
+        &self,
+        topic: &str,
+        schema_name: &str,
+        schema_encoding: &str,
+        schema: &[u8],
+        message_encoding: &str,
+        channel_metadata: BTreeMap<String, String>,
+    ) -> Result<ChannelHandle, SessionError> {
+        self.shared.check()?;
+        let registration = ChannelRegistration {
+            topic: topic.to_string(),
+            schema_name: schema_name.to_string(),
+            schema_encoding: schema_encoding.to_string(),
+            schema_data: schema.to_vec(),
+            message_encoding: message_encoding.to_string(),
+            metadata: channel_metadata,
+        };
+        let mut reg = lock(&self.shared.registry);
+        if let Some((handle, existing)) = reg.by_topic.get(topic) {
+            if *existing == registration {
+                return Ok(handle.clone());
+            }
+            return Err(SessionError::Channel {
+                path: self.shared.path.clone(),
+                topic: topic.to_string(),
+                detail: "already registered with a different schema, encoding or metadata".into(),
+            });
+        }
+        let id = self.shared.alloc_id(&mut reg, topic)?;
+        let handle = ChannelHandle { id, topic: topic.into() };
+        reg.by_topic.insert(topic.to_string(), (handle.clone(), registration.clone()));
+        // Send while holding the registry lock, so that no producer can log on
+        // this channel before the writer thread has seen it.
+        self.tx
+            .send(Command::Channel { id, registration: Box::new(registration) })
+            .map_err(|_| self.shared.closed())?;
+        Ok(handle)
+    }
+
+    /// Registers `T`'s channel (JSON messages, JSON Schema).
+    pub fn register<T: ChannelMessage>(
+        &self,
+        channel_metadata: BTreeMap<String, String>,
+    ) -> Result<ChannelHandle, SessionError> {
+        let schema = T::json_schema().to_string();
+        self.register_channel(
+            T::TOPIC,
+            T::SCHEMA_NAME,
+            SCHEMA_ENCODING_JSONSCHEMA,
+            schema.as_bytes(),
+            MESSAGE_ENCODING_JSON,
+            channel_metadata,
+        )
+    }
+
+    /// Queues a message, blocking while the queue is full: nothing logged
+    /// here is ever dropped. Fails with the writer's error once a write failed.
+    pub fn log(
+        &self,
+        channel: &ChannelHandle,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+        payload: Vec<u8>,
+    ) -> Result<(), SessionError> {
+        self.shared.check()?;
+        let cmd =
+            Command::Message { channel: channel.id, log_time, publish_time, sequence, payload, lossy: false };
+        self.tx.send(cmd).map_err(|_| self.shared.closed())
+    }
+
+    /// Queues a message unless the queue is full or holds too many lossy
+    /// bytes already; never blocks. Returns whether the message was queued,
+    /// and counts a drop when it was not.
+    pub fn log_lossy(
+        &self,
+        channel: &ChannelHandle,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+        payload: Vec<u8>,
+    ) -> Result<bool, SessionError> {
+        self.shared.check()?;
+        let len = payload.len();
+        let queued = self.shared.lossy_bytes_queued.fetch_add(len, Ordering::AcqRel);
+        let accepted = queued.saturating_add(len) <= self.shared.lossy_limit
+            && match self.tx.try_send(Command::Message {
+                channel: channel.id,
+                log_time,
+                publish_time,
+                sequence,
+                payload,
+                lossy: true,
+            }) {
+                Ok(()) => true,
+                Err(TrySendError::Full(_)) => false,
+                Err(TrySendError::Disconnected(_)) => {
+                    self.shared.lossy_bytes_queued.fetch_sub(len, Ordering::AcqRel);
+                    return Err(self.shared.closed());
+                }
+            };
+        if !accepted {
+            self.shared.lossy_bytes_queued.fetch_sub(len, Ordering::AcqRel);
+            self.shared.images_dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        Ok(accepted)
+    }
+
+    fn encode<T: Serialize>(&self, channel: &ChannelHandle, message: &T) -> Result<Vec<u8>, SessionError> {
+        serde_json::to_vec(message).map_err(|source| SessionError::Encode {
+            path: self.shared.path.clone(),
+            topic: channel.topic().to_string(),
+            source,
+        })
+    }
+
+    /// [`Logger::log`] of `message` serialized as JSON.
+    pub fn log_json<T: Serialize>(
+        &self,
+        channel: &ChannelHandle,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+        message: &T,
+    ) -> Result<(), SessionError> {
+        let payload = self.encode(channel, message)?;
+        self.log(channel, log_time, publish_time, sequence, payload)
+    }
+
+    /// [`Logger::log_lossy`] of `message` serialized as JSON.
+    pub fn log_json_lossy<T: Serialize>(
+        &self,
+        channel: &ChannelHandle,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+        message: &T,
+    ) -> Result<bool, SessionError> {
+        let payload = self.encode(channel, message)?;
+        self.log_lossy(channel, log_time, publish_time, sequence, payload)
+    }
+
+    /// Queues an attachment (a calibration file, a config), stamped with the
+    /// latest log time written so far. Blocks while the queue is full.
+    pub fn attach(&self, name: &str, media_type: &str, data: Vec<u8>) -> Result<(), SessionError> {
+        self.shared.check()?;
+        let cmd = Command::Attachment { name: name.into(), media_type: media_type.into(), data };
+        self.tx.send(cmd).map_err(|_| self.shared.closed())
+    }
+
+    /// Queues a metadata record. Blocks while the queue is full.
+    pub fn metadata(&self, name: &str, map: BTreeMap<String, String>) -> Result<(), SessionError> {
+        self.shared.check()?;
+        self.tx.send(Command::Metadata { name: name.into(), map }).map_err(|_| self.shared.closed())
+    }
+
+    /// Lossy messages dropped so far.
+    pub fn images_dropped(&self) -> u64 {
+        self.shared.images_dropped.load(Ordering::Relaxed)
+    }
+
+    /// The session file.
+    pub fn path(&self) -> &Path {
+        &self.shared.path
+    }
+}

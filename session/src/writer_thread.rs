@@ -1,0 +1,288 @@
+//! The recorder's writer thread: drains the queue into the `mcap::Writer`,
+//! closes chunks on time, and stops cleanly at the first write failure.
+
+use std::borrow::Cow;
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{Receiver, RecvTimeoutError};
+use mcap::records::{MessageHeader, Metadata};
+use mcap::{Attachment, McapError};
+use slidetrack_core::TimeNs;
+
+use super::error::SessionError;
+use super::messages::{ChannelMessage, MESSAGE_ENCODING_JSON, RecorderStats, SCHEMA_ENCODING_JSONSCHEMA};
+use super::metadata::{OUTCOME_METADATA, SessionOutcome};
+use super::writer::{ChannelRegistration, Shared};
+
+/// What producers send to the writer thread.
+pub(crate) enum Command {
+    Channel {
+        id: u16,
+        registration: Box<ChannelRegistration>,
+    },
+    Message {
+        channel: u16,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+        payload: Vec<u8>,
+        /// Counted in `Shared::lossy_bytes_queued` until dequeued.
+        lossy: bool,
+    },
+    Attachment {
+        name: String,
+        media_type: String,
+        data: Vec<u8>,
+    },
+    Metadata {
+        name: String,
+        map: BTreeMap<String, String>,
+    },
+    /// Write the stats message (on this channel id) and the outcome, then the summary.
+    Finish {
+        stats_channel: Option<u16>,
+        outcome: Option<(bool, Option<String>)>,
+    },
+}
+
+type McapWriter = mcap::Writer<BufWriter<File>>;
+
+pub(crate) struct WriterThread {
+    writer: McapWriter,
+    rx: Receiver<Command>,
+    shared: Arc<Shared>,
+    flush_interval: Duration,
+    /// When the open chunk got its first record; `None` when no chunk is open.
+    chunk_opened_at: Option<Instant>,
+    messages_written: u64,
+    last_log_time: TimeNs,
+}
+
+/// A failed write: the I/O kind when there is one, and the message.
+struct Failure(Option<std::io::ErrorKind>, String);
+
+impl From<McapError> for Failure {
+    fn from(e: McapError) -> Failure {
+        match e {
+            McapError::Io(io) => Failure(Some(io.kind()), io.to_string()),
+            other => Failure(None, other.to_string()),
+        }
+    }
+}
+
+impl From<std::io::Error> for Failure {
+    fn from(e: std::io::Error) -> Failure {
+        Failure(Some(e.kind()), e.to_string())
+    }
+}
+
+impl WriterThread {
+    pub(crate) fn new(
+        writer: McapWriter,
+        rx: Receiver<Command>,
+        shared: Arc<Shared>,
+        flush_interval: Duration,
+    ) -> WriterThread {
+        WriterThread {
+            writer,
+            rx,
+            shared,
+            flush_interval,
+            chunk_opened_at: None,
+            messages_written: 0,
+            last_log_time: TimeNs::ZERO,
+        }
+    }
+
+    /// Runs until `Finish` (or until every sender is gone) and returns the stats.
+    pub(crate) fn run(mut self) -> Result<RecorderStats, SessionError> {
+        loop {
+            let deadline = self.chunk_opened_at.and_then(|t| t.checked_add(self.flush_interval));
+            let received = match deadline {
+                Some(deadline) => self.rx.recv_deadline(deadline),
+                None => self.rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
+            };
+            let step = match received {
+                Ok(Command::Finish { stats_channel, outcome }) => {
+                    return self.finish(stats_channel, outcome);
+                }
+                Ok(cmd) => self.handle(cmd),
+                Err(RecvTimeoutError::Timeout) => Ok(()),
+                Err(RecvTimeoutError::Disconnected) => return self.finish(None, None),
+            };
+            let step = step.and_then(|()| self.flush_if_due());
+            if let Err(Failure(kind, detail)) = step {
+                self.shared.fail(kind, detail);
+                return self.drain();
+            }
+        }
+    }
+
+    fn handle(&mut self, cmd: Command) -> Result<(), Failure> {
+        #[cfg(test)]
+        let shared = Arc::clone(&self.shared);
+        #[cfg(test)]
+        let _gate = super::writer::lock(&shared.gate);
+        match cmd {
+            Command::Channel { id, registration: r } => {
+                let schema_id = if r.schema_name.is_empty() && r.schema_encoding.is_empty() {
+                    0
+                } else {
+                    self.writer.add_schema(&r.schema_name, &r.schema_encoding, &r.schema_data)?
+                };
+                self.writer.add_channel_with_id(id, schema_id, &r.topic, &r.message_encoding, &r.metadata)?;
+                self.chunk_opened_at.get_or_insert_with(Instant::now);
+            }
+            Command::Message { channel, log_time, publish_time, sequence, payload, lossy } => {
+                if lossy {
+                    let len = payload.len();
+                    self.shared.lossy_bytes_queued.fetch_sub(len, Ordering::AcqRel);
+                }
+                self.write_message(channel, log_time, publish_time, sequence, &payload)?;
+            }
+            Command::Attachment { name, media_type, data } => {
+                let attachment = Attachment {
+                    log_time: self.last_log_time.0,
+                    create_time: self.last_log_time.0,
+                    name,
+                    media_type,
+                    data: Cow::Owned(data),
+                };
+                self.writer.attach(&attachment)?;
+                self.flush()?;
+            }
+            Command::Metadata { name, map } => {
+                self.writer.write_metadata(&Metadata { name, metadata: map })?;
+                self.flush()?;
+            }
+            Command::Finish { .. } => {}
+        }
+        Ok(())
+    }
+
+    fn write_message(
+        &mut self,
+        channel: u16,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+        payload: &[u8],
+    ) -> Result<(), Failure> {
+        let header = MessageHeader {
+            channel_id: channel,
+            sequence,
+            log_time: log_time.0,
+            publish_time: publish_time.0,
+        };
+        self.writer.write_to_known_channel(&header, payload)?;
+        self.messages_written += 1;
+        self.last_log_time = self.last_log_time.max(log_time);
+        self.chunk_opened_at.get_or_insert_with(Instant::now);
+        Ok(())
+    }
+
+    fn flush_if_due(&mut self) -> Result<(), Failure> {
+        match self.chunk_opened_at {
+            Some(t) if t.elapsed() >= self.flush_interval => self.flush(),
+            _ => Ok(()),
+        }
+    }
+
+    /// Closes the open chunk and hands the bytes to the OS.
+    fn flush(&mut self) -> Result<(), Failure> {
+        self.writer.flush()?;
+        self.chunk_opened_at = None;
+        Ok(())
+    }
+
+    fn finish(
+        self,
+        stats_channel: Option<u16>,
+        outcome: Option<(bool, Option<String>)>,
+    ) -> Result<RecorderStats, SessionError> {
+        let stats = RecorderStats {
+            messages_written: self.messages_written,
+            images_dropped: self.shared.images_dropped.load(Ordering::Relaxed),
+        };
+        let WriterThread { writer, shared, last_log_time, .. } = self;
+        let mut writer = Some(writer);
+        match write_end(&mut writer, last_log_time, stats, stats_channel, outcome) {
+            Ok(()) => Ok(stats),
+            Err(Failure(kind, detail)) => {
+                if let Some(w) = writer {
+                    abandon(w);
+                }
+                shared.fail(kind, detail);
+                Err(shared.closed())
+            }
+        }
+    }
+
+    /// After a failure: leave the file as a crash would (no more writes),
+    /// discard everything until `Finish` so producers never block on a dead
+    /// writer, then report the failure.
+    fn drain(self) -> Result<RecorderStats, SessionError> {
+        let WriterThread { writer, rx, shared, .. } = self;
+        abandon(writer);
+        for cmd in rx.iter() {
+            match cmd {
+                Command::Message { lossy: true, payload, .. } => {
+                    shared.lossy_bytes_queued.fetch_sub(payload.len(), Ordering::AcqRel);
+                }
+                Command::Finish { .. } => break,
+                _ => {}
+            }
+        }
+        Err(shared.closed())
+    }
+}
+
+/// Drops a writer without writing anything more: no summary, and bytes still
+/// buffered are discarded. The file stays as a crash would have left it.
+fn abandon(writer: McapWriter) {
+    let (file, _unwritten) = writer.into_inner().into_parts();
+    drop(file);
+}
+
+/// Writes the stats message, the outcome record and the summary, then syncs
+/// the file. On failure the writer is left in `slot` (taken when it is consumed).
+fn write_end(
+    slot: &mut Option<McapWriter>,
+    last_log_time: TimeNs,
+    stats: RecorderStats,
+    stats_channel: Option<u16>,
+    outcome: Option<(bool, Option<String>)>,
+) -> Result<(), Failure> {
+    let Some(writer) = slot.as_mut() else {
+        return Err(Failure(None, "the writer is gone".into()));
+    };
+    if let Some(id) = stats_channel {
+        let schema = RecorderStats::json_schema().to_string();
+        let schema_id =
+            writer.add_schema(RecorderStats::SCHEMA_NAME, SCHEMA_ENCODING_JSONSCHEMA, schema.as_bytes())?;
+        let no_metadata = BTreeMap::new();
+        let topic = RecorderStats::TOPIC;
+        writer.add_channel_with_id(id, schema_id, topic, MESSAGE_ENCODING_JSON, &no_metadata)?;
+        let payload = serde_json::to_vec(&stats).map_err(|e| Failure(None, e.to_string()))?;
+        let t = last_log_time.0;
+        let header = MessageHeader { channel_id: id, sequence: 0, log_time: t, publish_time: t };
+        writer.write_to_known_channel(&header, &payload)?;
+    }
+    if let Some((completed, abort_reason)) = outcome {
+        let images_dropped = stats.images_dropped;
+        let outcome = SessionOutcome { completed, abort_reason, images_dropped };
+        let record = Metadata { name: OUTCOME_METADATA.into(), metadata: outcome.to_map() };
+        writer.write_metadata(&record)?;
+    }
+    writer.finish()?;
+    if let Some(writer) = slot.take() {
+        let file = writer.into_inner().into_inner().map_err(|e| Failure::from(e.into_error()))?;
+        file.sync_all()?;
+    }
+    Ok(())
+}

@@ -1,0 +1,144 @@
+//! The simulated devices: each implements its driver trait on a shared
+//! [`SimWorld`], advancing it on the session clock.
+
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use slidetrack_core::{
+    Clock, DeviceError, ErrorKind, FingerVolts, HandActuator, SimTruth, TactileInfo, TactileSample,
+    TactileSource, TimeNs, TruthSource, saturate,
+};
+
+use super::config::SimRigConfig;
+use super::object::ObjectConfig;
+use super::world::SimWorld;
+
+/// The world shared by the simulated devices of one trial.
+pub type SharedWorld = Arc<Mutex<SimWorld>>;
+
+fn lock<'a>(world: &'a SharedWorld, device: &str) -> Result<MutexGuard<'a, SimWorld>, DeviceError> {
+    world.lock().map_err(|_| {
+        DeviceError::new(ErrorKind::Fault, device, "simulation state poisoned by an earlier panic")
+    })
+}
+
+/// The simulated devices of one trial.
+pub struct SimDevices {
+    /// The three fingertip modules.
+    pub tactile: SimTactile,
+    /// The hand.
+    pub hand: SimHand,
+    /// The simulator's truth at each scan.
+    pub truth: SimTruthTap,
+    /// The world, for the camera and for tests.
+    pub world: SharedWorld,
+}
+
+impl SimDevices {
+    /// One trial of `object` on the simulated rig, on `clock`, from `seed` and `trial`.
+    pub fn new(
+        cfg: &SimRigConfig,
+        object: &ObjectConfig,
+        seed: u64,
+        trial: u32,
+        clock: Arc<dyn Clock>,
+    ) -> SimDevices {
+        let world = Arc::new(Mutex::new(SimWorld::new(cfg, object, seed, trial)));
+        let slot = Arc::new(Mutex::new(None));
+        SimDevices {
+            tactile: SimTactile {
+                world: world.clone(),
+                clock,
+                period_ns: 1e9 / cfg.tactile_rate_hz,
+                rate_hz: cfg.tactile_rate_hz,
+                sequence: 0,
+                truth: slot.clone(),
+            },
+            hand: SimHand {
+                world: world.clone(),
+                max_volts: cfg.max_volts,
+                release_volts: -0.3 * cfg.max_volts,
+            },
+            truth: SimTruthTap { slot },
+            world,
+        }
+    }
+}
+
+/// The simulated tactile modules.
+pub struct SimTactile {
+    world: SharedWorld,
+    clock: Arc<dyn Clock>,
+    period_ns: f64,
+    rate_hz: f64,
+    sequence: u64,
+    truth: Arc<Mutex<Option<SimTruth>>>,
+}
+
+impl TactileSource for SimTactile {
+    fn read(&mut self) -> Result<TactileSample, DeviceError> {
+        let sequence = self.sequence + 1;
+        let t = TimeNs((sequence as f64 * self.period_ns).round() as u64);
+        self.clock.sleep_until(t);
+        let mut world = lock(&self.world, "sim tactile")?;
+        world.advance_to(t);
+        let raw = world.scan_tactile();
+        let truth = world.truth();
+        drop(world);
+        if let Ok(mut slot) = self.truth.lock() {
+            *slot = Some(truth);
+        }
+        self.sequence = sequence;
+        Ok(TactileSample { t, sequence, raw })
+    }
+
+    fn info(&self) -> TactileInfo {
+        TactileInfo { device: "sim".into(), rate_hz: self.rate_hz, taxels: None }
+    }
+}
+
+/// The truth of the newest scan.
+pub struct SimTruthTap {
+    slot: Arc<Mutex<Option<SimTruth>>>,
+}
+
+impl TruthSource for SimTruthTap {
+    fn latest(&mut self) -> Option<SimTruth> {
+        self.slot.lock().ok().and_then(|mut s| s.take())
+    }
+}
+
+/// The simulated hand.
+pub struct SimHand {
+    world: SharedWorld,
+    max_volts: f64,
+    release_volts: f64,
+}
+
+impl HandActuator for SimHand {
+    fn command(&mut self, volts: FingerVolts) -> Result<(), DeviceError> {
+        let v = saturate(volts, self.max_volts);
+        lock(&self.world, "sim hand")?.set_volts(v);
+        Ok(())
+    }
+
+    fn release(&mut self) -> Result<(), DeviceError> {
+        lock(&self.world, "sim hand")?.set_volts([self.release_volts; 3]);
+        Ok(())
+    }
+
+    fn max_volts(&self) -> f64 {
+        self.max_volts
+    }
+
+    fn device(&self) -> &str {
+        "sim hand"
+    }
+}
+
+impl Drop for SimHand {
+    fn drop(&mut self) {
+        if let Ok(mut w) = self.world.lock() {
+            w.set_volts([self.release_volts; 3]);
+        }
+    }
+}

@@ -1,0 +1,261 @@
+//! The simulated grasp: three fingers, an object under gravity between them,
+//! friction at each fingertip, and the tactile modules that feel it.
+
+use std::collections::VecDeque;
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use slidetrack_core::{FingerVolts, SimTruth, TimeNs};
+
+use super::config::SimRigConfig;
+use super::finger::FingerState;
+use super::friction::{LuGreContact, LuGreParams};
+use super::object::ObjectConfig;
+use super::surface::SurfaceProfile;
+use super::tactile_model::{ContactDeformation, TactileModule};
+
+/// Independent random streams of one trial, so that turning the camera off
+/// (or on) does not change the tactile data.
+#[derive(Clone, Copy, Debug)]
+pub enum Stream {
+    /// Per-trial parameter draws (mass, friction, sensor gains, baselines).
+    Trial = 1,
+    /// Tactile noise, drift, vibration and spikes.
+    Tactile = 2,
+    /// Camera noise.
+    Camera = 3,
+}
+
+/// A seed for `stream` of `trial` under the session seed (SplitMix64 mixing).
+pub fn stream_seed(seed: u64, trial: u32, stream: Stream) -> u64 {
+    let mut z = seed
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add(u64::from(trial).wrapping_mul(0xBF58_476D_1CE4_E5B9))
+        .wrapping_add(stream as u64);
+    for _ in 0..2 {
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+    }
+    z
+}
+
+/// The state of the whole simulated grasp.
+pub struct SimWorld {
+    cfg: SimRigConfig,
+    object: ObjectConfig,
+    mass_kg: f64,
+    lugre: LuGreParams,
+    fingers: [FingerState; 3],
+    contacts: [LuGreContact; 3],
+    friction_n: [f64; 3],
+    modules: [TactileModule; 3],
+    surfaces: [SurfaceProfile; 3],
+    tactile_rng: ChaCha8Rng,
+    volts: FingerVolts,
+    position_m: f64,
+    velocity_mps: f64,
+    supported: bool,
+    lift_timer_s: f64,
+    dropped: bool,
+    t_ns: u64,
+    dt_ns: u64,
+    last_scan_ns: u64,
+    frame_period_ns: Option<f64>,
+    next_frame: u64,
+    frames: VecDeque<(TimeNs, u64, f64)>,
+}
+
+impl SimWorld {
+    /// A new trial: the object rests on its support between the open fingers.
+    pub fn new(cfg: &SimRigConfig, object: &ObjectConfig, seed: u64, trial: u32) -> SimWorld {
+        let mut rng = ChaCha8Rng::seed_from_u64(stream_seed(seed, trial, Stream::Trial));
+        let j = &object.jitter;
+        let mut jitter = |rel: f64| 1.0 + if rel > 0.0 { rng.random_range(-rel..=rel) } else { 0.0 };
+        let mass_kg = object.mass_kg * jitter(j.mass_rel);
+        let lugre = LuGreParams::from_config(&object.friction, jitter(j.friction_rel));
+        let modules = [0, 1, 2].map(|f| TactileModule::draw(&cfg.tactile, f, j.sensor_gain_rel, &mut rng));
+        let surfaces = [0, 1, 2].map(|_| SurfaceProfile::draw(&object.surface, &mut rng));
+        let dt_ns = (1e9 / cfg.physics_rate_hz).round().max(1.0) as u64;
+        SimWorld {
+            cfg: cfg.clone(),
+            object: object.clone(),
+            mass_kg,
+            lugre,
+            fingers: [FingerState::default(); 3],
+            contacts: [LuGreContact::default(); 3],
+            friction_n: [0.0; 3],
+            modules,
+            surfaces,
+            tactile_rng: ChaCha8Rng::seed_from_u64(stream_seed(seed, trial, Stream::Tactile)),
+            volts: [0.0; 3],
+            position_m: 0.0,
+            velocity_mps: 0.0,
+            supported: true,
+            lift_timer_s: 0.0,
+            dropped: false,
+            t_ns: 0,
+            dt_ns,
+            last_scan_ns: 0,
+            frame_period_ns: None,
+            next_frame: 0,
+            frames: VecDeque::new(),
+        }
+    }
+
+    /// Records the object position at every multiple of `1 / fps` from now on,
+    /// for a camera to render ([`SimWorld::pop_frame`]).
+    pub fn capture_frames(&mut self, fps: f64) {
+        self.frame_period_ns = Some(1e9 / fps);
+    }
+
+    /// The oldest captured frame: exposure time, frame number (from 0) and
+    /// object travel (m).
+    pub fn pop_frame(&mut self) -> Option<(TimeNs, u64, f64)> {
+        self.frames.pop_front()
+    }
+
+    /// Sets the proximal-joint voltages (V), already saturated by the hand.
+    pub fn set_volts(&mut self, volts: FingerVolts) {
+        self.volts = volts;
+    }
+
+    /// The trial's object after jitter: mass (kg).
+    pub fn mass_kg(&self) -> f64 {
+        self.mass_kg
+    }
+
+    /// Current physics time.
+    pub fn now(&self) -> TimeNs {
+        TimeNs(self.t_ns)
+    }
+
+    /// Steps the physics at its fixed rate until `t` (never backwards).
+    pub fn advance_to(&mut self, t: TimeNs) {
+        while self.t_ns + self.dt_ns <= t.0 {
+            let p_before = self.position_m;
+            self.step(self.dt_ns as f64 * 1e-9);
+            self.t_ns += self.dt_ns;
+            self.capture(p_before);
+        }
+    }
+
+    fn capture(&mut self, p_before: f64) {
+        let Some(period) = self.frame_period_ns else {
+            return;
+        };
+        loop {
+            let t_frame = (self.next_frame as f64 * period).round() as u64;
+            if t_frame > self.t_ns {
+                break;
+            }
+            // Linear interpolation inside the step that crossed the frame time.
+            let t0 = self.t_ns - self.dt_ns;
+            let s = (t_frame.saturating_sub(t0)) as f64 / self.dt_ns as f64;
+            let p = p_before + s * (self.position_m - p_before);
+            self.frames.push_back((TimeNs(t_frame), self.next_frame, p));
+            self.next_frame += 1;
+        }
+    }
+
+    fn step(&mut self, dt_s: f64) {
+        let in_contact = !self.dropped;
+        for (f, finger) in self.fingers.iter_mut().enumerate() {
+            let (height, _) = self.surfaces[f].height_and_slope(self.position_m);
+            finger.step(self.cfg.finger(f), self.volts[f], height, in_contact, dt_s);
+        }
+        let normal: [f64; 3] = self.fingers.map(|f| f.normal_n);
+        let g = self.cfg.gravity_mps2;
+        if self.supported {
+            self.update_support(&normal, dt_s);
+            self.friction_n = [0.0; 3];
+            return;
+        }
+        if self.dropped {
+            self.velocity_mps += g * dt_s;
+            self.position_m += self.velocity_mps * dt_s;
+            self.friction_n = [0.0; 3];
+            return;
+        }
+        let p = &self.lugre;
+        let scale = self.object.friction.profile_factor(self.position_m);
+        let v = self.velocity_mps;
+        let gv = p.stribeck(v, scale);
+        // Bristle spring and the explicit part of the bristle damping, with the
+        // velocity-proportional damping (sigma1 + sigma2) taken implicitly.
+        let mut force_explicit = 0.0;
+        let mut damping = 0.0;
+        for (c, &n) in self.contacts.iter().zip(&normal) {
+            force_explicit +=
+                n * (p.sigma0_per_m * c.z_m - p.sigma1_s_per_m * p.sigma0_per_m * v.abs() * c.z_m / gv);
+            damping += n * (p.sigma1_s_per_m + p.sigma2_s_per_m);
+        }
+        let m = self.mass_kg;
+        let v_new = (v + dt_s * (g - force_explicit / m)) / (1.0 + dt_s * damping / m);
+        let g_new = p.stribeck(v_new, scale);
+        for (f, c) in self.contacts.iter_mut().enumerate() {
+            c.step(p, v_new, g_new, dt_s);
+            self.friction_n[f] = c.force(p, v_new, normal[f]);
+        }
+        self.velocity_mps = v_new;
+        self.position_m += v_new * dt_s;
+        if self.position_m > self.object.geometry.slide_range_m {
+            self.dropped = true;
+        }
+    }
+
+    /// The arm lifts the object once the grasp could hold it with a margin
+    /// for a while; until then the support carries the weight.
+    fn update_support(&mut self, normal: &[f64; 3], dt_s: f64) {
+        let capacity: f64 = normal.iter().map(|n| n * self.lugre.mu_static).sum();
+        let weight = self.mass_kg * self.cfg.gravity_mps2;
+        if capacity >= self.cfg.lift_margin * weight {
+            self.lift_timer_s += dt_s;
+            if self.lift_timer_s >= self.cfg.lift_hold_s {
+                self.supported = false;
+            }
+        } else {
+            self.lift_timer_s = 0.0;
+        }
+    }
+
+    /// The truth now.
+    pub fn truth(&self) -> SimTruth {
+        SimTruth {
+            t: TimeNs(self.t_ns),
+            position_m: self.position_m,
+            velocity_mps: self.velocity_mps,
+            supported: self.supported,
+            dropped: self.dropped,
+            normal_n: self.fingers.map(|f| f.normal_n),
+            friction_n: self.friction_n,
+        }
+    }
+
+    /// One scan of the three tactile modules at the current time.
+    pub fn scan_tactile(&mut self) -> [[u16; 3]; 3] {
+        let dt_s = (self.t_ns - self.last_scan_ns.min(self.t_ns)) as f64 * 1e-9;
+        self.last_scan_ns = self.t_ns;
+        let t_s = self.t_ns as f64 * 1e-9;
+        let mut raw = [[0u16; 3]; 3];
+        for (f, counts) in raw.iter_mut().enumerate() {
+            // On a sloped patch of texture the contact force leans along the
+            // sliding axis and shears the pad with it.
+            let (_, slope) = self.surfaces[f].height_and_slope(self.position_m);
+            let tangential_n = self.friction_n[f] + self.fingers[f].normal_n * slope;
+            let deformation = ContactDeformation {
+                indentation_m: self.fingers[f].indentation_m,
+                shear_m: tangential_n / self.cfg.finger(f).pad_shear_stiffness_n_per_m,
+                slip_speed_mps: if self.supported { 0.0 } else { self.velocity_mps },
+            };
+            *counts = self.modules[f].sample(
+                &self.cfg.tactile,
+                &deformation,
+                t_s,
+                dt_s.max(1e-6),
+                &mut self.tactile_rng,
+            );
+        }
+        raw
+    }
+}

@@ -1,0 +1,195 @@
+//! Arguments of the dEKF commands: `train`, `replay`, `eval`, `study`.
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+use slidetrack_estimators::dekf::Measurement;
+use slidetrack_experiment::dataset::{ChannelSet, TruthSource};
+use slidetrack_experiment::dekf_train::DEFAULT_POSITION_SHIFT_CM;
+
+/// A channel set of Table 6.2 on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ChannelSetArg {
+    /// x, y and z of every finger.
+    Xyz,
+    /// x and y (the shear channels) of every finger.
+    Xy,
+    /// z (the normal channel) of every finger.
+    Z,
+}
+
+impl From<ChannelSetArg> for ChannelSet {
+    fn from(c: ChannelSetArg) -> ChannelSet {
+        match c {
+            ChannelSetArg::Xyz => ChannelSet::Xyz,
+            ChannelSetArg::Xy => ChannelSet::Xy,
+            ChannelSetArg::Z => ChannelSet::Z,
+        }
+    }
+}
+
+/// Which truth to train and score against, on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TruthArg {
+    /// `/ground_truth/sliding` from `slidetrack label` (the thesis's protocol).
+    GroundTruth,
+    /// `/sim/truth`, the simulator's own (simulated sessions only).
+    Sim,
+}
+
+impl From<TruthArg> for TruthSource {
+    fn from(t: TruthArg) -> TruthSource {
+        match t {
+            TruthArg::GroundTruth => TruthSource::GroundTruth,
+            TruthArg::Sim => TruthSource::Sim,
+        }
+    }
+}
+
+/// What the feature network reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum MeasurementArg {
+    /// The derivative of the tactile signal (the thesis's choice).
+    Derivative,
+    /// The plain baseline-subtracted signal (ablation of Table 6.3).
+    Raw,
+}
+
+/// Arguments of `train`.
+#[derive(Debug, Args, Clone)]
+pub struct TrainArgs {
+    /// Labelled session files, or directories of them.
+    #[arg(required = true)]
+    pub sessions: Vec<PathBuf>,
+    /// Tactile channels the model reads.
+    #[arg(long, value_enum, default_value_t = ChannelSetArg::Xy)]
+    pub channels: ChannelSetArg,
+    /// What the model reads: the derivative of the signal or the signal.
+    #[arg(long, value_enum, default_value_t = MeasurementArg::Derivative)]
+    pub measurement: MeasurementArg,
+    /// Model file to write (.safetensors).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Filter rate (Hz): the tactile stream is decimated to about this rate
+    /// (the thesis trained at 30 Hz).
+    #[arg(long, default_value_t = 30.0)]
+    pub rate_hz: f64,
+    /// Schedule as `length:epochs,...` (Sec. 6.2.4: 2:5,4:5,8:5,16:5,32:5).
+    #[arg(long, default_value = "2:5,4:5,8:5,16:5,32:5")]
+    pub schedule: String,
+    /// Subsequences per batch.
+    #[arg(long, default_value_t = 32)]
+    pub batch: usize,
+    /// Adam's learning rate.
+    #[arg(long, default_value_t = 1e-3)]
+    pub lr: f64,
+    /// Seed of initialisation, shuffling and initial-state draws.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Shift each training window by a random offset along the sliding axis,
+    /// uniform in +-this (cm), so that the networks cannot tie their output to
+    /// where the object happens to be (see the README); 0 keeps the recorded
+    /// positions, as the thesis did.
+    #[arg(long, default_value_t = DEFAULT_POSITION_SHIFT_CM)]
+    pub position_shift: f64,
+    /// Keep the parameters of the last epoch instead of those of the epoch
+    /// whose filter, run over whole training sessions, tracked the position best
+    /// (checked after each epoch of the second half of the schedule).
+    #[arg(long)]
+    pub no_select: bool,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Truth to train against: the ArUco ground truth or the simulator's.
+    #[arg(long, value_enum, default_value_t = TruthArg::GroundTruth)]
+    pub truth: TruthArg,
+    /// Also plot the training curve (state RMSE per epoch, Fig. 6.6).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Print a JSON summary instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `replay`.
+#[derive(Debug, Args, Clone)]
+pub struct ReplayArgs {
+    /// Session file (.mcap).
+    pub file: PathBuf,
+    /// Model file (.safetensors).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Output session: a copy of FILE with `/tactile/derivative` and `/estimate/dekf`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also plot estimates against the truth (Fig. 6.9).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Replace OUT if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// Arguments of `eval`.
+#[derive(Debug, Args, Clone)]
+pub struct EvalArgs {
+    /// Model file (.safetensors).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Session files (labelled), or directories of them.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Score against the ArUco ground truth (default) or the simulator's truth.
+    #[arg(long, value_enum, default_value_t = TruthArg::GroundTruth)]
+    pub truth: TruthArg,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `study`.
+#[derive(Debug, Args, Clone)]
+pub struct StudyArgs {
+    /// Directory of sessions, grouped by the object in their metadata; each
+    /// object's sessions (sorted by name) are split 50/50 into training and
+    /// testing sets. Objects without sessions there are collected into it
+    /// first (see `--collect`), and unlabelled sessions are labelled.
+    #[arg(long, default_value = "study/sessions")]
+    pub sessions: PathBuf,
+    /// Directory for the models and the tables.
+    #[arg(long, default_value = "study")]
+    pub out: PathBuf,
+    /// A small, fast version: 3 + 3 sessions of 20 s per object collected
+    /// without camera, trained against the simulator's truth with 2 epochs per length.
+    #[arg(long)]
+    pub quick: bool,
+    /// Sessions to collect per object when the directory has none of it
+    /// (default 50, as the thesis; 6 with `--quick`).
+    #[arg(long)]
+    pub collect: Option<u32>,
+    /// Duration of the sliding cycles of collected sessions (s; default 60, 20 with `--quick`).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Training schedule (default the thesis's 2:5,4:5,8:5,16:5,32:5).
+    #[arg(long)]
+    pub schedule: Option<String>,
+    /// Truth to train and score against (default: the ArUco ground truth;
+    /// `--quick`: the simulator's truth, as it collects no camera).
+    #[arg(long, value_enum)]
+    pub truth: Option<TruthArg>,
+    /// Seed of the simulated rig and of the trainings.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Trainings run at the same time, one core each (0: every core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+}
+
+impl From<MeasurementArg> for Measurement {
+    fn from(m: MeasurementArg) -> Measurement {
+        match m {
+            MeasurementArg::Derivative => Measurement::Derivative,
+            MeasurementArg::Raw => Measurement::Raw,
+        }
+    }
+}

@@ -1,0 +1,170 @@
+//! Arguments of the commands that run the experiment: `collect`, `track`,
+//! `demo`, `bench`.
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+use slidetrack_experiment::trial::RigKind;
+use slidetrack_vision::TrackerKind;
+
+/// Which rig runs the trial, on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RigArg {
+    /// The simulated rig (physics model of the hand, object and sensors).
+    Sim,
+    /// The real rig, with the devices of the rig configuration.
+    Hw,
+}
+
+impl From<RigArg> for RigKind {
+    fn from(r: RigArg) -> RigKind {
+        match r {
+            RigArg::Sim => RigKind::Sim,
+            RigArg::Hw => RigKind::Hw,
+        }
+    }
+}
+
+/// The experiment to run: rig, object, duration and how (`collect`, `track`).
+#[derive(Debug, Args, Clone)]
+pub struct ExperimentArgs {
+    /// The rig to run on.
+    #[arg(long, value_enum, default_value_t = RigArg::Sim)]
+    pub rig: RigArg,
+    /// Object: a built-in name (box, bottle, mustard) or a path to an object .toml.
+    #[arg(long, default_value = "box")]
+    pub object: String,
+    /// Duration of the sliding cycles of each trial (s).
+    #[arg(long, default_value_t = 60.0)]
+    pub duration: f64,
+    /// Seed of the simulated rig; the same seed gives the same data.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Rig configuration (TOML); the built-in simulated rig when absent.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Do not render or record the camera (much faster).
+    #[arg(long)]
+    pub no_camera: bool,
+    /// Run the simulated rig in wall-clock time instead of as fast as possible.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Replace session files that already exist (refused otherwise).
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// Arguments of `collect`.
+#[derive(Debug, Args)]
+pub struct CollectArgs {
+    /// The experiment.
+    #[command(flatten)]
+    pub run: ExperimentArgs,
+    /// Number of trials, one session file each.
+    #[arg(long, default_value_t = 1)]
+    pub trials: u32,
+    /// Index of the first trial (trials are numbered from it).
+    #[arg(long, default_value_t = 0)]
+    pub first_trial: u32,
+    /// Directory for the session files (created if missing).
+    #[arg(long, default_value = "sessions")]
+    pub out: PathBuf,
+}
+
+/// Arguments of `demo`.
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Directory for the demo's sessions and plots.
+    #[arg(long, default_value = "demo-out")]
+    pub out: PathBuf,
+    /// Duration of the sliding cycles of each trial (s).
+    #[arg(long, default_value_t = 60.0)]
+    pub duration: f64,
+    /// Seed of the simulated rig and of the training.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Sessions to train on.
+    #[arg(long, default_value_t = 16)]
+    pub train: u32,
+    /// Held-out sessions to evaluate on.
+    #[arg(long, default_value_t = 4)]
+    pub test: u32,
+    /// Worker threads (0: every core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+}
+
+/// A benchmark of `bench`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchWhat {
+    /// Collecting a simulated trial, with and without camera (one core).
+    Collect,
+    /// One online dEKF step, derivative filter included (one core).
+    Dekf,
+    /// Training the dEKF on a thesis-sized simulated set (`--threads` cores).
+    DekfTraining,
+}
+
+/// Arguments of `bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// What to measure, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "collect")]
+    pub what: Vec<BenchWhat>,
+    /// Worker threads of the training benchmark (the target is for 2 cores).
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Runs per measurement (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    pub runs: usize,
+    /// Duration of the sliding cycles of the measured trial (s).
+    #[arg(long, default_value_t = 60.0)]
+    pub duration: f64,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `track`.
+#[derive(Debug, Args, Clone)]
+pub struct TrackArgs {
+    /// The experiment.
+    #[command(flatten)]
+    pub run: ExperimentArgs,
+    /// dEKF model file (.safetensors) from `slidetrack train`.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Trial number (the simulated rig's per-trial jitter derives from it).
+    #[arg(long, default_value_t = 0)]
+    pub trial: u32,
+    /// Session file to write (default: sessions/<object>-s<seed>-t<trial>-track.mcap).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Also run a vision tracker beside the dEKF on the simulated rig's
+    /// in-hand RGB-D scene, fed by an imitation of a slow network (5 fps,
+    /// 200 ms late): `/estimate/pose/<tracker>` and friends.
+    #[arg(long, value_enum)]
+    pub vision: Option<VisionArg>,
+    /// With `--vision`: also record the rendered colour, depth and masks
+    /// (about 1 MB per frame).
+    #[arg(long, requires = "vision")]
+    pub record_rgbd: bool,
+}
+
+/// A vision tracker of `--vision`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum VisionArg {
+    /// MaskUKF (thesis Chapter 4).
+    Maskukf,
+    /// ROFT (thesis Chapter 5).
+    Roft,
+}
+
+impl From<VisionArg> for TrackerKind {
+    fn from(v: VisionArg) -> TrackerKind {
+        match v {
+            VisionArg::Maskukf => TrackerKind::MaskUkf,
+            VisionArg::Roft => TrackerKind::Roft,
+        }
+    }
+}

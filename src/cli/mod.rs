@@ -1,0 +1,181 @@
+//! Command-line arguments: every argument struct of every command, in one
+//! module (grouped by subject in its files). Commands read these types; this
+//! module reads nothing of the commands.
+
+mod camera;
+mod dekf;
+mod experiment;
+mod session;
+mod vision;
+
+use clap::{Parser, Subcommand};
+
+pub use camera::*;
+pub use dekf::*;
+pub use experiment::*;
+pub use session::*;
+pub use vision::*;
+
+/// Controlled-sliding grasp experiments with tactile sensors and cameras:
+/// collect sessions on the simulated or the real rig, inspect and plot them.
+#[derive(Debug, Parser)]
+#[command(name = "slidetrack", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    /// More diagnostics on stderr (-v info, -vv debug).
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+    /// Only errors on stderr, no progress bars.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
+    /// The command to run.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run controlled-sliding trials and record one session (.mcap) per trial.
+    Collect(CollectArgs),
+    /// Show a session's channels, message counts, rates, duration and metadata.
+    Info(InfoArgs),
+    /// Write one channel of a session as CSV to stdout.
+    Export(ExportArgs),
+    /// Plot a session: grasp strength, tactile traces, marker position.
+    Plot(PlotArgs),
+    /// Collect a few simulated trials and report what they hold.
+    Demo(DemoArgs),
+    /// Measure collection speed against the targets.
+    Bench(BenchArgs),
+    /// List the built-in objects of the simulated rig.
+    Objects,
+    /// Vision trackers (MaskUKF, ROFT): simulate RGB-D sessions, track, evaluate.
+    Vision(VisionArgs),
+    /// Build the ground truth of sessions from the ArUco marker (RTS smoother).
+    Label(LabelArgs),
+    /// Calibrate a camera's intrinsics from views of a chessboard, ChArUco board or circle grid.
+    Calibrate(CalibrateArgs),
+    /// ArUco marker tools: detect markers (and their poses) in an image.
+    Aruco(ArucoArgs),
+    /// List the cameras (with their formats), serial ports and CAN interfaces present.
+    Devices(DevicesArgs),
+    /// Train a dEKF model on labelled sessions (BPTT, Sec. 6.2.4).
+    Train(TrainArgs),
+    /// Run a dEKF model over a session and write a copy with its estimates.
+    Replay(ReplayArgs),
+    /// Score a dEKF model on labelled sessions (RMSE and max errors, Table 6.1).
+    Eval(EvalArgs),
+    /// Run the experiment with the dEKF (and the marker filter) live, recorded to a session.
+    Track(TrackArgs),
+    /// The experiments of thesis Sec. 6.3 on the simulated rig: Tables 6.1-6.4.
+    Study(StudyArgs),
+    /// Turn captured tactile traffic (candump log, raw serial bytes) into a session.
+    Decode(DecodeArgs),
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+
+    use super::*;
+
+    #[test]
+    fn collect_parses_the_documented_example() {
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "collect",
+            "--rig",
+            "sim",
+            "--object",
+            "box",
+            "--trials",
+            "10",
+            "--duration",
+            "60",
+            "--seed",
+            "1",
+            "--out",
+            "DIR",
+        ])
+        .unwrap();
+        let Command::Collect(a) = cli.command else { panic!("not collect") };
+        assert_eq!(
+            (a.run.rig, a.run.object.as_str(), a.trials, a.run.duration, a.run.seed),
+            (RigArg::Sim, "box", 10, 60.0, 1)
+        );
+        assert_eq!(a.out, PathBuf::from("DIR"));
+        assert!(!a.run.no_camera);
+    }
+
+    #[test]
+    fn unknown_rig_is_a_parse_error() {
+        assert!(Cli::try_parse_from(["slidetrack", "collect", "--rig", "moon"]).is_err());
+    }
+
+    #[test]
+    fn decode_needs_exactly_one_capture() {
+        let parse = |args: &[&str]| Cli::try_parse_from([&["slidetrack", "decode"], args].concat());
+        assert!(parse(&["--out", "x.mcap"]).is_err());
+        assert!(parse(&["--can-log", "a.log", "--serial-capture", "b.bin", "--out", "x.mcap"]).is_err());
+        let cli = parse(&["--can-log", "a.log", "--out", "x.mcap", "--taxels", "16"]).unwrap();
+        let Command::Decode(a) = cli.command else { panic!("not decode") };
+        assert_eq!((a.can_log, a.taxels), (Some(PathBuf::from("a.log")), Some(16)));
+        assert!(Cli::try_parse_from(["slidetrack", "devices", "--json"]).is_ok());
+    }
+
+    #[test]
+    fn label_calibrate_and_aruco_parse() {
+        let cli =
+            Cli::try_parse_from(["slidetrack", "label", "a.mcap", "b.mcap", "--axis", "estimate", "--json"])
+                .unwrap();
+        let Command::Label(a) = cli.command else { panic!("not label") };
+        assert_eq!((a.files.len(), a.axis, a.json), (2, AxisArg::Estimate, true));
+        assert!(Cli::try_parse_from(["slidetrack", "label"]).is_err());
+        assert!(Cli::try_parse_from(["slidetrack", "label", "a.mcap", "--gate", "9", "--no-gate"]).is_err());
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "calibrate",
+            "camera",
+            "--images",
+            "a/*.jpg",
+            "b.png",
+            "--pattern",
+            "chessboard:9x6:0.025",
+            "--format",
+            "opencv",
+        ])
+        .unwrap();
+        let Command::Calibrate(CalibrateArgs { what: CalibrateCommand::Camera(c) }) = cli.command else {
+            panic!("not calibrate camera")
+        };
+        assert_eq!((c.images.len(), c.format), (2, CalibrationFormatArg::Opencv));
+        assert!(
+            Cli::try_parse_from(["slidetrack", "calibrate", "camera", "--pattern", "chessboard:9x6:0.025"])
+                .is_err()
+        );
+        assert!(
+            Cli::try_parse_from(["slidetrack", "aruco", "detect", "x.png", "--camera", "c.yaml"]).is_err()
+        );
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "aruco",
+            "detect",
+            "x.png",
+            "--camera",
+            "c.yaml",
+            "--marker-size",
+            "0.03",
+        ]);
+        assert!(cli.is_ok());
+        let cli =
+            Cli::try_parse_from(["slidetrack", "plot", "x.mcap", "--out", "g.png", "--what", "ground-truth"])
+                .unwrap();
+        let Command::Plot(p) = cli.command else { panic!("not plot") };
+        assert_eq!(p.what, PlotKind::GroundTruth);
+    }
+    #[test]
+    fn export_needs_a_channel() {
+        assert!(Cli::try_parse_from(["slidetrack", "export", "x.mcap"]).is_err());
+        assert!(Cli::try_parse_from(["slidetrack", "export", "x.mcap", "--channel", "/tactile/raw"]).is_ok());
+    }
+}

@@ -1,0 +1,152 @@
+//! Arguments of the commands that read, plot, label and decode sessions, and
+//! of `devices`.
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+
+/// Arguments of `info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Session file (.mcap).
+    pub file: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Read a truncated file (writer killed) up to its last complete chunk.
+    #[arg(long)]
+    pub recover: bool,
+}
+
+/// Arguments of `export`.
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// Session file (.mcap).
+    pub file: PathBuf,
+    /// Channel (topic) to export, e.g. /tactile/raw.
+    #[arg(long)]
+    pub channel: String,
+    /// Read a truncated file (writer killed) up to its last complete chunk.
+    #[arg(long)]
+    pub recover: bool,
+}
+
+/// What `plot` draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PlotKind {
+    /// Grasp strength, tactile traces and marker position, stacked.
+    Overview,
+    /// Desired vs achieved grasp strength per finger (thesis Fig. 6.4).
+    Grasp,
+    /// Baseline-subtracted tactile channels per finger and marker position (Fig. 6.8).
+    Tactile,
+    /// Marker position, filtered and smoothed ground truth, position and velocity (Fig. 6.5).
+    GroundTruth,
+}
+
+/// Arguments of `plot`.
+#[derive(Debug, Args)]
+pub struct PlotArgs {
+    /// Session file (.mcap).
+    pub file: PathBuf,
+    /// Output image (.png).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// What to plot.
+    #[arg(long, value_enum, default_value_t = PlotKind::Overview)]
+    pub what: PlotKind,
+    /// Read a truncated file (writer killed) up to its last complete chunk.
+    #[arg(long)]
+    pub recover: bool,
+}
+
+/// Where `label` takes the marker positions along the sliding axis from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AxisArg {
+    /// `position_on_axis_m` as recorded online with the rig's geometry.
+    Recorded,
+    /// Recompute from `position_in_camera_m` with the camera placement and
+    /// sliding axis of the rig configuration stored in the session.
+    Config,
+    /// Recompute along the principal direction of the marker track.
+    Estimate,
+}
+
+/// Arguments of `label`.
+#[derive(Debug, Args)]
+pub struct LabelArgs {
+    /// Session files (.mcap) to label; each is rewritten in place, atomically.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Source of the marker positions along the sliding axis.
+    #[arg(long, value_enum, default_value_t = AxisArg::Recorded)]
+    pub axis: AxisArg,
+    /// Start from the thesis's parameters (Q = diag(0.01, 0.01) per 1/30 s
+    /// step, R = 10, read in cm; no gate) instead of the defaults.
+    #[arg(long)]
+    pub thesis: bool,
+    /// Spectral density of the position random walk q_p (m^2/s); Q = diag(q_p, q_v) * dt.
+    #[arg(long, value_name = "M2_PER_S")]
+    pub q_position: Option<f64>,
+    /// Spectral density of the velocity random walk q_v (m^2/s^3).
+    #[arg(long, value_name = "M2_PER_S3")]
+    pub q_velocity: Option<f64>,
+    /// Variance of a marker position R (m^2).
+    #[arg(long, value_name = "M2")]
+    pub r: Option<f64>,
+    /// Reject marker positions whose squared Mahalanobis distance exceeds this.
+    #[arg(long, value_name = "D2", conflicts_with = "no_gate")]
+    pub gate: Option<f64>,
+    /// Use every marker position (no outlier gate).
+    #[arg(long)]
+    pub no_gate: bool,
+    /// Compute and report only; leave the files as they are.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Label a truncated file (writer killed) from its complete chunks; the result is a complete file.
+    #[arg(long)]
+    pub recover: bool,
+    /// Print a JSON summary per file instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `devices`.
+#[derive(Debug, Args)]
+pub struct DevicesArgs {
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `decode`.
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("capture").required(true).args(["can_log", "serial_capture"])))]
+pub struct DecodeArgs {
+    /// A can-utils `candump -l` log of a uSkin board (XELA layout).
+    #[arg(long, value_name = "FILE")]
+    pub can_log: Option<PathBuf>,
+    /// Raw bytes captured from a uSkin serial port (e.g. `cat /dev/ttyACM0 > capture.bin`).
+    #[arg(long, value_name = "FILE")]
+    pub serial_capture: Option<PathBuf>,
+    /// Session file to write (.mcap).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Rig configuration whose [hw.tactile] table describes the device
+    /// (ids, taxel counts, finger map); the defaults of `kind` otherwise.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Scan rate of a serial capture (Hz), which sets its log times; the
+    /// configuration's `rate_hz` otherwise.
+    #[arg(long)]
+    pub rate: Option<f64>,
+    /// Taxels on the CAN board (overrides the configuration).
+    #[arg(long)]
+    pub taxels: Option<u16>,
+    /// Only frames of this interface of the CAN log (all by default).
+    #[arg(long)]
+    pub interface: Option<String>,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}

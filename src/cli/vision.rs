@@ -1,0 +1,236 @@
+//! Arguments of `vision` and its subcommands.
+
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand, ValueEnum};
+
+/// Arguments of `vision`.
+#[derive(Debug, Args)]
+pub struct VisionArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: VisionCommand,
+}
+
+/// The vision commands.
+#[derive(Debug, Subcommand)]
+pub enum VisionCommand {
+    /// Record a simulated RGB-D session of a fast-moving object, with the true
+    /// pose, velocity and masks, and the imitated slow network's masks and poses.
+    Simulate(VisionSimulateArgs),
+    /// Track an object in a session or a YCB-Video-style directory and write
+    /// the estimates to a session.
+    Track(VisionTrackArgs),
+    /// Score the trackers on simulated fast sequences (or on inputs with
+    /// ground truth): ADD-AUC, ADI-AUC, RMSEs; --ablation for Table 5.6.
+    Eval(VisionEvalArgs),
+}
+
+/// The trackers on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TrackerArg {
+    /// MaskUKF: segmentation + depth, sequential UKF (Chapter 4).
+    Maskukf,
+    /// ROFT: optical flow + delayed masks and poses (Chapter 5).
+    Roft,
+}
+
+/// Where masks and poses come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MeasurementsArg {
+    /// The input's own: a session's /vision/mask and /vision/pose, or the
+    /// label masks of a YCB-Video directory (every frame, no delay).
+    Input,
+    /// The imitated slow network (5 fps, 200 ms late) from the input's truth.
+    Network,
+    /// The input's ground truth, every frame, without delay.
+    Truth,
+}
+
+/// How a tracker starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InitArg {
+    /// From the first pose measurement that arrives.
+    Measurement,
+    /// From the input's true pose of the first frame.
+    Truth,
+    /// From the true pose of the first frame moved 5 cm along each axis and
+    /// turned 10 degrees on each Euler angle (thesis Sec. 4.2.3).
+    Perturbed,
+}
+
+/// Arguments of `vision simulate`.
+#[derive(Debug, Args)]
+pub struct VisionSimulateArgs {
+    /// Object: cracker_box, sugar_box, soup_can, mustard_bottle, gelatin_box, meat_can.
+    #[arg(long, default_value = "cracker_box")]
+    pub object: String,
+    /// Length of the sequence (s), at 30 Hz.
+    #[arg(long, default_value_t = 10.0)]
+    pub duration: f64,
+    /// Seed of the motion, the noise and the network.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Peak linear speed (m/s).
+    #[arg(long, default_value_t = 0.6)]
+    pub max_speed: f64,
+    /// Peak angular speed (deg/s).
+    #[arg(long, default_value_t = 270.0)]
+    pub max_angular_speed: f64,
+    /// Session file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace the file if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// Arguments of `vision track`.
+#[derive(Debug, Args)]
+pub struct VisionTrackArgs {
+    /// The tracker.
+    #[arg(long, value_enum)]
+    pub tracker: TrackerArg,
+    /// An RGB-D session (.mcap) or a directory of YCB-Video-style frames
+    /// (NNNNNN-color.png, -depth.png, -label.png, -meta.mat).
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Object model: .obj, .ply or .xyz (metres), or `sim` for the object of
+    /// a simulated session.
+    #[arg(long)]
+    pub model: String,
+    /// Scale of the model's coordinates to metres (0.001 for millimetres).
+    #[arg(long, default_value_t = 1.0)]
+    pub model_scale: f64,
+    /// YCB-Video class to track in a directory: its name (009_gelatin_box)
+    /// or 1-based index; default: the model's directory name.
+    #[arg(long)]
+    pub object: Option<String>,
+    /// Where masks and poses come from.
+    #[arg(long, value_enum, default_value_t = MeasurementsArg::Input)]
+    pub measurements: MeasurementsArg,
+    /// How the tracker starts.
+    #[arg(long, value_enum, default_value_t = InitArg::Measurement)]
+    pub init: InitArg,
+    /// Session file for the estimates (/estimate/pose|transform|velocity/<tracker>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output file if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Read a truncated input session up to its last complete chunk.
+    #[arg(long)]
+    pub recover: bool,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `vision eval`.
+#[derive(Debug, Args)]
+pub struct VisionEvalArgs {
+    /// Simulated sequences per object.
+    #[arg(long, default_value_t = 1)]
+    pub sequences: usize,
+    /// Objects of the simulated sequences (comma-separated); default all six.
+    #[arg(long, value_delimiter = ',')]
+    pub objects: Vec<String>,
+    /// Length of each simulated sequence (s).
+    #[arg(long, default_value_t = 8.0)]
+    pub duration: f64,
+    /// Seed of the first sequence.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Run the ROFT variants of Table 5.6 (with and without each component).
+    #[arg(long)]
+    pub ablation: bool,
+    /// Instead of simulated sequences: inputs with ground truth (sessions
+    /// with /sim/object, or YCB-Video-style directories), tracked with the
+    /// settings of `vision track`.
+    #[arg(long, num_args = 1..)]
+    pub input: Vec<PathBuf>,
+    /// Tracker for --input.
+    #[arg(long, value_enum, default_value_t = TrackerArg::Roft)]
+    pub tracker: TrackerArg,
+    /// Object model for --input (as in `vision track`).
+    #[arg(long)]
+    pub model: Option<String>,
+    /// YCB-Video class for directory inputs.
+    #[arg(long)]
+    pub object: Option<String>,
+    /// Where masks and poses come from, for --input.
+    #[arg(long, value_enum, default_value_t = MeasurementsArg::Input)]
+    pub measurements: MeasurementsArg,
+    /// How the tracker starts, for --input.
+    #[arg(long, value_enum, default_value_t = InitArg::Measurement)]
+    pub init: InitArg,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl TrackerArg {
+    /// The library's kind.
+    pub fn kind(self) -> slidetrack_vision::TrackerKind {
+        match self {
+            TrackerArg::Maskukf => slidetrack_vision::TrackerKind::MaskUkf,
+            TrackerArg::Roft => slidetrack_vision::TrackerKind::Roft,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+    use crate::cli::{Cli, Command};
+
+    #[test]
+    fn the_documented_commands_parse() {
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "vision",
+            "track",
+            "--tracker",
+            "roft",
+            "--input",
+            "s.mcap",
+            "--model",
+            "sim",
+            "--out",
+            "e.mcap",
+        ])
+        .unwrap();
+        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
+        assert_eq!(t.tracker, TrackerArg::Roft);
+        assert_eq!(t.measurements, MeasurementsArg::Input);
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "vision",
+            "eval",
+            "--ablation",
+            "--json",
+            "--objects",
+            "soup_can,cracker_box",
+        ])
+        .unwrap();
+        let Command::Vision(VisionArgs { command: VisionCommand::Eval(e) }) = cli.command else { panic!() };
+        assert!(e.ablation && e.json);
+        assert_eq!(e.objects, vec!["soup_can", "cracker_box"]);
+        assert!(
+            Cli::try_parse_from([
+                "slidetrack",
+                "vision",
+                "track",
+                "--tracker",
+                "other",
+                "--input",
+                "x",
+                "--model",
+                "m"
+            ])
+            .is_err()
+        );
+    }
+}
