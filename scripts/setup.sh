@@ -37,6 +37,6 @@ if [ "${1:-}" = "--test" ]; then
     echo "setup: creating target/pyenv with the official mcap reader and numpy" >&2
     mkdir -p target
     python3 -m venv target/pyenv
-    target/pyenv/bin/python -m pip install -q mcap numpy
+    target/pyenv/bin/python -m pip install -q 'mcap==1.6.0' 'numpy==2.4.6'
   fi
 fi

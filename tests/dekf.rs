@@ -1,6 +1,6 @@
 //! The dEKF end to end through the CLI: train, replay (checked against an
 //! independent implementation of docs/model-format.md), eval, bad input.
-#![allow(clippy::unwrap_used)] // test code: a failed unwrap is a failed test
+#![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
 mod common;
 

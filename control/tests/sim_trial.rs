@@ -1,6 +1,6 @@
 //! Controlled-sliding trials on the simulated rig, end to end through the
 //! protocol and the runner (no camera, no recording).
-#![allow(clippy::unwrap_used)] // test code: a failed unwrap is a failed test
+#![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;

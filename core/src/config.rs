@@ -30,7 +30,7 @@ mod tests {
 
     #[derive(Debug, serde::Deserialize)]
     #[serde(deny_unknown_fields)]
-    #[allow(dead_code)]
+    #[expect(dead_code, reason = "only deserialized, to check the error of an unknown field")]
     struct Example {
         a: f64,
     }

@@ -127,9 +127,10 @@ impl ModuleFrame {
 }
 
 /// What the decoder found in the stream.
-// Frames are nearly every event: boxing them would allocate per frame to
-// shrink the rare error events.
-#[allow(clippy::large_enum_variant)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "frames are nearly every event: boxing them would allocate per frame to shrink the rare error events"
+)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SerialEvent {
     /// A frame with a good CRC.

@@ -1,7 +1,7 @@
 //! MaskUKF per frame at 640x480: the partial cloud of a box seen by a VGA
 //! camera (about 16 000 points before subsampling), outlier rejection and
 //! the sequential UKF. One thread. Target: 300 fps (thesis: 52.6 fps).
-#![allow(clippy::unwrap_used)] // test code: a failed unwrap is a failed test
+#![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
 use std::hint::black_box;
 use std::sync::Arc;

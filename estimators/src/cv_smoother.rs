@@ -19,7 +19,7 @@
 //! `q_p = q_v = 0.3`, `R = 10` in any length unit, because the smoothed mean
 //! depends only on the ratios of `Q`, `R` and `P0` (see
 //! [`CvSmootherParams::from_per_step`]).
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{SMatrix, SVector};
 

@@ -6,7 +6,7 @@
 //! its setting does not depend on the sample rate: for a step `dt`,
 //! `Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]]` with `q` in counts^2/s^3; the
 //! measurement noise `r` is in counts^2.
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};

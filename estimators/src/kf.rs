@@ -1,7 +1,7 @@
 //! The linear Kalman filter (thesis Algorithm 1), generic over the state
 //! size `N` and the measurement size `M`, with `dt` passed per step and
 //! `None` for a missing measurement (predict only).
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{SMatrix, SVector};
 

@@ -8,7 +8,7 @@
 //! measurement is a predict-only step. An optional innovation gate rejects a
 //! measurement whose squared Mahalanobis distance `y^T S^-1 y` exceeds a
 //! threshold; a rejected measurement is treated as missing.
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{SMatrix, SVector};
 

@@ -6,7 +6,7 @@
 //! evaluated at the running iterate `μ_{j-1}` and `H_j` is the Jacobian at
 //! the prior mean (2.58), as in the EKF. The prediction is the ordinary one
 //! ([`crate::kf::predict`]).
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{SMatrix, SVector};
 

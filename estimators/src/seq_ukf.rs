@@ -19,7 +19,7 @@
 //! when the prediction has no separate additive noise, and stays exact when it
 //! does.) Note (2.87) prints `P_t = P_t^- + 𝒳 𝒞 𝒳^T`; the derivation (2.75)-(2.76)
 //! gives `P_t = 𝒳 𝒞 𝒳^T`, which is what is implemented.
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{DMatrix, DVector};
 

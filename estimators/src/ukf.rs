@@ -14,7 +14,7 @@
 //!
 //! Every function returns an error instead of a non-finite belief, so a
 //! caller that keeps its previous belief on error never holds NaN.
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 

@@ -3,7 +3,7 @@
 //! beside the trial (`/tactile/derivative`, `/estimate/dekf`,
 //! `/estimate/aruco`) and shown in the terminal; on the simulated rig, a
 //! vision tracker on the rendered in-hand RGB-D scene beside them.
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use std::sync::{Arc, Mutex};
 

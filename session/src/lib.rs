@@ -50,3 +50,4 @@ pub use vision_pose::{
     VelocityEstimate, VisionMask, VisionPose,
 };
 pub use writer::{ChannelHandle, Logger, RecorderOptions};
+pub use writer_thread::SessionSink;

@@ -14,7 +14,7 @@ use super::error::SessionError;
 use super::messages::{ChannelMessage, RecorderStats};
 use super::metadata::SESSION_METADATA;
 use super::writer::{ChannelHandle, Logger, RecorderOptions, Shared};
-use super::writer_thread::{Command, WriterThread};
+use super::writer_thread::{Command, SessionSink, WriterThread};
 
 /// Records one session to one MCAP file.
 ///
@@ -64,7 +64,20 @@ impl Recorder {
             open.create_new(true);
         }
         let file = open.open(&path).map_err(create_error)?;
-        let out = BufWriter::with_capacity(256 << 10, file);
+        Recorder::with_sink(path, file, metadata, options)
+    }
+
+    /// Records to `sink` instead of a file of its own; `path` names the
+    /// session in messages and errors. `options.overwrite` does not apply.
+    pub fn with_sink(
+        path: impl AsRef<Path>,
+        sink: impl SessionSink,
+        metadata: BTreeMap<String, String>,
+        options: RecorderOptions,
+    ) -> Result<Recorder, SessionError> {
+        let path = path.as_ref().to_path_buf();
+        let create_error = |source| SessionError::Create { path: path.clone(), source };
+        let out = BufWriter::with_capacity(256 << 10, Box::new(sink) as Box<dyn SessionSink>);
         let write_options = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             .compression_level(options.compression_level)

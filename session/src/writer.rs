@@ -84,9 +84,6 @@ pub(crate) struct Shared {
     pub(crate) lossy_bytes_queued: AtomicUsize,
     lossy_limit: usize,
     registry: Mutex<Registry>,
-    /// Held by a test to stall the writer thread before its next record.
-    #[cfg(test)]
-    pub(crate) gate: Mutex<()>,
 }
 
 #[derive(Default)]
@@ -109,8 +106,6 @@ impl Shared {
             lossy_bytes_queued: AtomicUsize::new(0),
             lossy_limit,
             registry: Mutex::new(Registry::default()),
-            #[cfg(test)]
-            gate: Mutex::new(()),
         }
     }
 

@@ -3,8 +3,7 @@
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufWriter;
+use std::io::{BufWriter, Seek, Write};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -50,7 +49,26 @@ pub(crate) enum Command {
     },
 }
 
-type McapWriter = mcap::Writer<BufWriter<File>>;
+/// Where a [`Recorder`](super::Recorder) writes: the session file, or any
+/// seekable byte sink (a buffer in memory, a file behind a test's gate).
+pub trait SessionSink: Write + Seek + Send + 'static {
+    /// Makes the bytes written so far durable (`fsync` for a file).
+    fn sync(&mut self) -> std::io::Result<()>;
+}
+
+impl SessionSink for std::fs::File {
+    fn sync(&mut self) -> std::io::Result<()> {
+        self.sync_all()
+    }
+}
+
+impl SessionSink for std::io::Cursor<Vec<u8>> {
+    fn sync(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+pub(crate) type McapWriter = mcap::Writer<BufWriter<Box<dyn SessionSink>>>;
 
 pub(crate) struct WriterThread {
     writer: McapWriter,
@@ -124,10 +142,6 @@ impl WriterThread {
     }
 
     fn handle(&mut self, cmd: Command) -> Result<(), Failure> {
-        #[cfg(test)]
-        let shared = Arc::clone(&self.shared);
-        #[cfg(test)]
-        let _gate = super::writer::lock(&shared.gate);
         match cmd {
             Command::Channel { id, registration: r } => {
                 let schema_id = if r.schema_name.is_empty() && r.schema_encoding.is_empty() {
@@ -281,8 +295,8 @@ fn write_end(
     }
     writer.finish()?;
     if let Some(writer) = slot.take() {
-        let file = writer.into_inner().into_inner().map_err(|e| Failure::from(e.into_error()))?;
-        file.sync_all()?;
+        let mut sink = writer.into_inner().into_inner().map_err(|e| Failure::from(e.into_error()))?;
+        sink.sync()?;
     }
     Ok(())
 }

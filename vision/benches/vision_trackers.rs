@@ -15,7 +15,7 @@
 //! time per frame, and (the `_cpu` benchmarks) the CPU time of the tracking
 //! thread per frame, which does not count the time the thread waited for a
 //! core on a busy machine.
-#![allow(clippy::unwrap_used)] // test code: a failed unwrap is a failed test
+#![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
 use std::hint::black_box;
 use std::path::PathBuf;

@@ -4,7 +4,7 @@
 //! fallbacks are the documented ones (MaskUKF: the virtual point cloud of
 //! Sec. 4.1.6; ROFT: the depth test (5.20) for poses, prediction for frames
 //! without depth) and both are back on the object afterwards.
-#![allow(clippy::unwrap_used)] // test code: a failed unwrap is a failed test
+#![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use slidetrack_core::CameraIntrinsics;

@@ -101,34 +101,35 @@ fn driver_timestamps_map_to_the_session_clock() {
     assert!(clock.now().0 - t.0 < 100_000_000, "{t:?} vs {:?}", clock.now());
 }
 
-/// A capture device to test on and a format it offers: `(path, format, width, height)`.
-fn camera_under_test() -> Option<(String, V4l2PixelFormat, u32, u32)> {
-    let wanted = std::env::var("SLIDETRACK_V4L2").ok();
-    list_cameras(Path::new("/dev"))
+/// The formats of the capture device named in `SLIDETRACK_V4L2` that the
+/// backend streams: `(path, format, width, height)`.
+fn camera_under_test() -> (String, V4l2PixelFormat, u32, u32) {
+    let wanted =
+        std::env::var("SLIDETRACK_V4L2").expect("SLIDETRACK_V4L2 names the camera, e.g. /dev/video0");
+    let camera = list_cameras(Path::new("/dev"))
         .into_iter()
-        .filter(|c| wanted.as_ref().is_none_or(|w| *w == c.path))
-        .find_map(|c| {
-            c.formats.iter().find_map(|f| {
-                let format = match f.fourcc.as_str() {
-                    "MJPG" => V4l2PixelFormat::Mjpg,
-                    "YUYV" => V4l2PixelFormat::Yuyv,
-                    _ => return None,
-                };
-                let size = f.sizes.first()?;
-                Some((c.path.clone(), format, size.width, size.height))
-            })
+        .find(|c| c.path == wanted)
+        .unwrap_or_else(|| panic!("{wanted} is not a V4L2 capture node"));
+    camera
+        .formats
+        .iter()
+        .find_map(|f| {
+            let format = match f.fourcc.as_str() {
+                "MJPG" => V4l2PixelFormat::Mjpg,
+                "YUYV" => V4l2PixelFormat::Yuyv,
+                _ => return None,
+            };
+            let size = f.sizes.first()?;
+            Some((camera.path.clone(), format, size.width, size.height))
         })
+        .unwrap_or_else(|| panic!("{wanted} offers neither MJPG nor YUYV"))
 }
 
+/// Runs on the camera named in `SLIDETRACK_V4L2`.
 #[test]
+#[cfg_attr(not(slidetrack_v4l2), ignore = "needs a V4L2 camera named in SLIDETRACK_V4L2")]
 fn a_real_camera_streams_frames_on_the_session_clock() {
-    let Some((path, format, width, height)) = camera_under_test() else {
-        eprintln!(
-            "skipping the V4L2 device test: no /dev/video* capture node offering MJPG or YUYV \
-             (plug in a camera, or name one in SLIDETRACK_V4L2)"
-        );
-        return;
-    };
+    let (path, format, width, height) = camera_under_test();
     let cfg = V4l2CameraConfig {
         device: path.clone(),
         width,

@@ -2,7 +2,7 @@
 //! backpropagation through time (Sec. 2.5.3): the filter runs `T_s` steps from
 //! states drawn around the ground truth (2.148), and the gradient flows back
 //! through every correction, prediction and network evaluation.
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::DMatrix;
 

@@ -7,7 +7,7 @@
 //! feature `z = NN3(tau')` and `z^ = NN2(x-)`, `H = dNN2/dx` at `x-`:
 //! `S = H P- H^T + R`, `R = L_R^2`, `K = P- H^T / S`, `x = x- + K (z - z^)`,
 //! `P = (I - K H) P- (I - K H)^T + K R K^T` (Joseph form).
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 /// A 2x2 matrix, row-major.
 pub type M2 = [[f64; 2]; 2];
@@ -135,7 +135,6 @@ pub struct CorrectGrad {
 }
 
 /// Reverse of [`correct`].
-#[allow(clippy::too_many_arguments)]
 pub fn correct_backward(
     c: &Corrected,
     cov: &M2,
@@ -197,7 +196,10 @@ mod tests {
     use super::*;
 
     /// A scalar function of the outputs of predict + correct, for finite differences.
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "every input of predict + correct, perturbed one at a time"
+    )]
     fn loss(
         mean: [f64; 2],
         cov: &M2,

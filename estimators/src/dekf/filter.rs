@@ -1,6 +1,6 @@
 //! The dEKF running online or on replay (dEKF table): the derivative filter
 //! on every tactile scan, the dEKF on every `decimation`-th.
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use super::ekf::{M2, correct, predict};
 use super::infer::FastNet;

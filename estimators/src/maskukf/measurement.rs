@@ -4,7 +4,7 @@
 //! nearest model point: `z_j` is moved to the object frame of `x`, the k-d
 //! tree finds the nearest `A_k`, and `A_k` goes back to the camera frame.
 
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Vector3};
 

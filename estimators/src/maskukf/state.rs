@@ -2,7 +2,7 @@
 //! velocity (m/s), ZYX Euler angles `o = (φ, χ, ψ)` (rad) and their rates
 //! (rad/s), all for `camera_from_object`; and the white-noise-acceleration
 //! motion model (4.5)-(4.7).
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{DMatrix, DVector, Isometry3, Translation3, UnitQuaternion, Vector3};
 

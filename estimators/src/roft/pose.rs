@@ -13,7 +13,7 @@
 //! measurement is used, and the spatial velocity `(v^m + ω × (-p), ω)` from
 //! the velocity tracker; noise is added with `⊕` (on the quaternion as a
 //! rotation vector).
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{DMatrix, DVector, Isometry3, Translation3, Vector3, Vector6};
 

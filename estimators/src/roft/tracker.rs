@@ -1,7 +1,7 @@
 //! [`Roft`]: the three stages, their buffers and the synchronisation of
 //! delayed pose measurements (the algorithm table of Sec. 5.4.7).
 
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use std::collections::VecDeque;
 use std::sync::Arc;

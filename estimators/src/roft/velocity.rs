@@ -18,7 +18,7 @@
 //! flow constrains lateral translation against rotation only weakly for a
 //! small object. Pixels whose depth is further than the gate from the median
 //! depth of the mask are skipped.
-#![allow(non_snake_case)]
+#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{SMatrix, SVector, Vector6};
 

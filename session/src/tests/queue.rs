@@ -1,20 +1,57 @@
 //! The recorder's queue, chunk policy and cost.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
+use std::fs::File;
+use std::io::{Seek, SeekFrom, Write};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use super::*;
+
+/// A session file on a disk that stalls: every write waits while the test
+/// holds `gate`, so the writer thread stops taking records off the queue.
+struct GatedFile {
+    file: File,
+    gate: Arc<Mutex<()>>,
+}
+
+impl GatedFile {
+    fn create(path: &std::path::Path, gate: &Arc<Mutex<()>>) -> GatedFile {
+        GatedFile { file: File::create(path).unwrap(), gate: Arc::clone(gate) }
+    }
+}
+
+impl Write for GatedFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let _open = self.gate.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        self.file.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+impl Seek for GatedFile {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.file.seek(pos)
+    }
+}
+
+impl SessionSink for GatedFile {
+    fn sync(&mut self) -> std::io::Result<()> {
+        self.file.sync_all()
+    }
+}
 
 #[test]
 fn lossy_logging_drops_and_counts_when_the_queue_is_full_and_lossless_never_drops() {
     let dir = TestDir::new("lossy");
     let path = dir.file("s.mcap");
     let options = RecorderOptions { queue_capacity: 8, ..RecorderOptions::default() };
-    let rec = Recorder::create_with_options(&path, BTreeMap::new(), options).unwrap();
-    let gate = Arc::clone(&rec.logger().shared);
-    let stalled = crate::writer::lock(&gate.gate);
+    let gate = Arc::new(Mutex::new(()));
+    let stalled = gate.lock().unwrap();
+    let rec = Recorder::with_sink(&path, GatedFile::create(&path, &gate), BTreeMap::new(), options).unwrap();
 
     let images = rec.register::<CompressedImage>(BTreeMap::new()).unwrap();
     let hand = rec.register::<HandCommand>(BTreeMap::new()).unwrap();
@@ -69,9 +106,10 @@ fn lossy_logging_drops_and_counts_when_the_queue_is_full_and_lossless_never_drop
 fn lossy_logging_drops_beyond_the_byte_budget() {
     let dir = TestDir::new("lossy-bytes");
     let options = RecorderOptions { lossy_queue_bytes: 2500, ..RecorderOptions::default() };
-    let rec = Recorder::create_with_options(dir.file("s.mcap"), BTreeMap::new(), options).unwrap();
-    let gate = Arc::clone(&rec.logger().shared);
-    let stalled = crate::writer::lock(&gate.gate);
+    let path = dir.file("s.mcap");
+    let gate = Arc::new(Mutex::new(()));
+    let stalled = gate.lock().unwrap();
+    let rec = Recorder::with_sink(&path, GatedFile::create(&path, &gate), BTreeMap::new(), options).unwrap();
     let ch = rec.register_channel("/blob", "", "", &[], "application/octet-stream", BTreeMap::new()).unwrap();
     let results: Vec<bool> =
         (0..5).map(|i| rec.log_lossy(&ch, TimeNs(i), TimeNs(i), 0, vec![0; 1000]).unwrap()).collect();

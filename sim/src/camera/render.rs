@@ -96,10 +96,10 @@ impl SimCameraRenderer {
         })
     }
 
-    /// Renders every pixel of the plane's surroundings one by one, over the
-    /// whole image: the reference the block renderer is tested against.
-    #[cfg(test)]
-    pub(super) fn set_exhaustive(&mut self, exhaustive: bool) {
+    /// With `exhaustive`, renders every pixel of the plane's surroundings one
+    /// by one over the whole image (several times slower): the reference the
+    /// block renderer is checked against.
+    pub fn set_exhaustive(&mut self, exhaustive: bool) {
         self.scratch.exhaustive = exhaustive;
     }
 
