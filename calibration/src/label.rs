@@ -131,7 +131,7 @@ pub fn read_inputs(path: &Path, options: ReadOptions) -> Result<SessionInputs, S
             }
             _ => {
                 let event: ProtocolEvent = serde_json::from_slice(&m.data).map_err(decode)?;
-                if inputs.release.is_none() && (event.phase == "release" || event.abort) {
+                if inputs.release.is_none() && event.ends_cycles() {
                     inputs.release = Some(m.log_time);
                 }
             }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 use slidetrack_core::TimeNs;
-use slidetrack_session::{ProtocolEvent, ReadOptions, SessionError, TactileZeroed, read_channel, read_json};
+use slidetrack_session::{ReadOptions, SessionError, TactileZeroed, read_channel, read_json, release_time};
 
 /// Topic of the ground truth written by `slidetrack label`.
 pub const GROUND_TRUTH_TOPIC: &str = "/ground_truth/sliding";
@@ -106,20 +106,10 @@ pub struct SessionData {
     pub rate_hz: f64,
 }
 
-/// The session time of the release (or the abort), if any.
-fn end_of_cycles(path: &Path) -> Result<TimeNs> {
-    let events = match read_channel::<ProtocolEvent>(path, ReadOptions::default()) {
-        Ok(e) => e,
-        Err(SessionError::NoSuchTopic { .. }) => Vec::new(),
-        Err(e) => return Err(e.into()),
-    };
-    Ok(events.iter().find(|(_, e)| e.phase == "release" || e.abort).map_or(TimeNs(u64::MAX), |(t, _)| *t))
-}
-
 /// Reads a session; `truth` names the truth to attach (an error when the
 /// session lacks it), or `None` for none.
 pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
-    let end = end_of_cycles(path)?;
+    let end = release_time(path, ReadOptions::default())?.unwrap_or(TimeNs(u64::MAX));
     let zeroed = read_channel::<TactileZeroed>(path, ReadOptions::default())
         .with_context(|| format!("{}: no baseline-subtracted tactile data", path.display()))?;
     let zeroed: Vec<_> = zeroed.into_iter().filter(|(t, _)| *t < end).collect();

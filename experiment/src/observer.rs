@@ -48,18 +48,18 @@ pub struct TrialStats {
 }
 
 struct Channels {
-    raw: ChannelHandle,
-    tare: ChannelHandle,
-    zeroed: ChannelHandle,
-    grasp: ChannelHandle,
-    command: ChannelHandle,
-    events: ChannelHandle,
-    truth: Option<ChannelHandle>,
-    image: Option<ChannelHandle>,
-    calibration: Option<ChannelHandle>,
-    aruco: Option<ChannelHandle>,
+    raw: ChannelHandle<TactileRaw>,
+    tare: ChannelHandle<TactileTare>,
+    zeroed: ChannelHandle<TactileZeroed>,
+    grasp: ChannelHandle<GraspControl>,
+    command: ChannelHandle<HandCommand>,
+    events: ChannelHandle<EventMsg>,
+    truth: Option<ChannelHandle<TruthMsg>>,
+    image: Option<ChannelHandle<CompressedImage>>,
+    calibration: Option<ChannelHandle<CameraCalibration>>,
+    aruco: Option<ChannelHandle<ArucoDetection>>,
     /// `/tactile/decoder`, registered with the first counters.
-    decoder: Option<ChannelHandle>,
+    decoder: Option<ChannelHandle<TactileDecoder>>,
 }
 
 /// Live work on a trial's data beside the recording (the online trackers of
@@ -160,7 +160,7 @@ impl<'a> SessionObserver<'a> {
         &self.stats
     }
 
-    fn log<T: ChannelMessage>(&self, ch: &ChannelHandle, t: TimeNs, msg: &T) -> Result<(), ObserverError> {
+    fn log<T: ChannelMessage>(&self, ch: &ChannelHandle<T>, t: TimeNs, msg: &T) -> Result<(), ObserverError> {
         self.logger.log_json(ch, t, t, 0, msg)?;
         Ok(())
     }
@@ -238,7 +238,7 @@ impl TrialObserver for SessionObserver<'_> {
             desired: r.desired_counts[f.index()],
             achieved: r.achieved_counts[f.index()],
         });
-        let msg = GraspControl { phase: r.phase.name().into(), reference: r.reference_counts, fingers };
+        let msg = GraspControl { phase: r.phase, reference: r.reference_counts, fingers };
         self.log(&self.ch.grasp, t, &msg)
     }
 
@@ -281,8 +281,7 @@ impl TrialObserver for SessionObserver<'_> {
             x.on_event(t, e);
         }
         tracing::info!(phase = e.phase.name(), "{}", e.message);
-        let msg =
-            EventMsg { phase: e.phase.name().into(), message: e.message.clone(), abort: e.abort.is_some() };
+        let msg = EventMsg { phase: e.phase, message: e.message.clone(), abort: e.abort.is_some() };
         self.log(&self.ch.events, t, &msg)
     }
 

@@ -131,9 +131,9 @@ pub struct LiveTrackers {
     dekf: DekfTracker,
     channels: Vec<usize>,
     values: Vec<f64>,
-    derivative_ch: ChannelHandle,
-    dekf_ch: ChannelHandle,
-    marker: Option<(MarkerFilter, ChannelHandle)>,
+    derivative_ch: ChannelHandle<TactileDerivative>,
+    dekf_ch: ChannelHandle<DekfEstimate>,
+    marker: Option<(MarkerFilter, ChannelHandle<ArucoEstimate>)>,
     vision: Option<InHandVision>,
     /// Latest simulator truth `(p, v)` (m, m/s) and its position when the dEKF started.
     truth: Option<[f64; 2]>,

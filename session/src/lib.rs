@@ -39,7 +39,9 @@ pub use messages::{
     SimTruth, TactileDecoder, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz, channel_specs,
 };
 pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
-pub use reader::{ChannelDesc, MessageReader, RawMessage, ReadOptions, read_channel, read_json};
+pub use reader::{
+    ChannelDesc, MessageReader, RawMessage, ReadOptions, read_channel, read_json, release_time,
+};
 pub use recorder::Recorder;
 pub use rewrite::{NewChannel, NewMessage, RewriteReport, rewrite_session};
 pub use schema::JSON_SCHEMA_DIALECT;
@@ -49,5 +51,5 @@ pub use vision_pose::{
     FrameTransform, ObjectTruth, PoseInFrame, RawImage, RgbdCalibration, RgbdColor, RgbdDepth, RgbdMask,
     VelocityEstimate, VisionMask, VisionPose,
 };
-pub use writer::{ChannelHandle, Logger, RecorderOptions};
+pub use writer::{ChannelHandle, Logger, RecorderOptions, Untyped};
 pub use writer_thread::SessionSink;

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-use slidetrack_core::{Finger, PerFinger, TactileInfo, TactileSample, TaxelRef};
+use slidetrack_core::{Finger, PerFinger, Phase, TactileInfo, TactileSample, TaxelRef};
 
 use super::schema::{self, boolean, number, per_finger, string, uint, xyz};
 
@@ -293,8 +293,8 @@ pub struct FingerSetpoint {
 /// `/control/grasp`: one step of the grasp controller.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct GraspControl {
-    /// The controller's phase (`approach`, `hold`, `slide`, ...).
-    pub phase: String,
+    /// The protocol's phase (`zero`, `close`, `ramp`, `settle`, `cycles`, ...).
+    pub phase: Phase,
     /// The generalised grasp strength reference tau_g,des (counts).
     pub reference: f64,
     /// Desired and achieved z per finger (counts, baseline subtracted).
@@ -307,7 +307,7 @@ impl ChannelMessage for GraspControl {
     const SCHEMA_NAME: &'static str = "slidetrack.GraspControl";
     fn json_schema() -> Value {
         let mut props = vec![
-            ("phase", string("the controller's phase")),
+            ("phase", schema::phase("the protocol's phase")),
             ("reference", number("generalised grasp strength reference tau_g,des (counts)")),
         ];
         props.extend(schema::finger_properties(|f| {
@@ -388,11 +388,18 @@ impl ChannelMessage for SimTruth {
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ProtocolEvent {
     /// The protocol phase entered or running.
-    pub phase: String,
+    pub phase: Phase,
     /// What happened, for people.
     pub message: String,
     /// True when this event aborts the trial.
     pub abort: bool,
+}
+
+impl ProtocolEvent {
+    /// True for the event that ends the sliding cycles: the release, or an abort.
+    pub fn ends_cycles(&self) -> bool {
+        self.phase == Phase::Release || self.abort
+    }
 }
 
 impl ChannelMessage for ProtocolEvent {
@@ -403,7 +410,7 @@ impl ChannelMessage for ProtocolEvent {
             Self::SCHEMA_NAME,
             "A step of the trial protocol",
             vec![
-                ("phase", string("protocol phase")),
+                ("phase", schema::phase("protocol phase")),
                 ("message", string("what happened")),
                 ("abort", boolean("this event aborts the trial")),
             ],

@@ -182,3 +182,15 @@ pub(crate) fn no_such_topic<'a>(
     let available = if topics.is_empty() { "no channels".to_string() } else { topics.join(", ") };
     SessionError::NoSuchTopic { path, topic: topic.to_string(), available }
 }
+
+/// The session time at which the sliding cycles ended: the first release or
+/// abort of `/protocol/events`; `None` when the trial never got there (or the
+/// session has no protocol events).
+pub fn release_time(path: impl AsRef<Path>, options: ReadOptions) -> Result<Option<TimeNs>, SessionError> {
+    use super::messages::ProtocolEvent;
+    match read_channel::<ProtocolEvent>(path, options) {
+        Ok(events) => Ok(events.iter().find(|(_, e)| e.ends_cycles()).map(|(t, _)| *t)),
+        Err(SessionError::NoSuchTopic { .. }) => Ok(None),
+        Err(e) => Err(e),
+    }
+}

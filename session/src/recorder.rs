@@ -13,7 +13,7 @@ use slidetrack_core::TimeNs;
 use super::error::SessionError;
 use super::messages::{ChannelMessage, RecorderStats};
 use super::metadata::SESSION_METADATA;
-use super::writer::{ChannelHandle, Logger, RecorderOptions, Shared};
+use super::writer::{ChannelHandle, Logger, RecorderOptions, Shared, Untyped};
 use super::writer_thread::{Command, SessionSink, WriterThread};
 
 /// Records one session to one MCAP file.
@@ -123,7 +123,7 @@ impl Recorder {
         schema: &[u8],
         message_encoding: &str,
         channel_metadata: BTreeMap<String, String>,
-    ) -> Result<ChannelHandle, SessionError> {
+    ) -> Result<ChannelHandle<Untyped>, SessionError> {
         let l = &self.logger;
         l.register_channel(topic, schema_name, schema_encoding, schema, message_encoding, channel_metadata)
     }
@@ -132,14 +132,14 @@ impl Recorder {
     pub fn register<T: ChannelMessage>(
         &self,
         meta: BTreeMap<String, String>,
-    ) -> Result<ChannelHandle, SessionError> {
+    ) -> Result<ChannelHandle<T>, SessionError> {
         self.logger.register::<T>(meta)
     }
 
     /// See [`Logger::log`].
     pub fn log(
         &self,
-        ch: &ChannelHandle,
+        ch: &ChannelHandle<Untyped>,
         log_time: TimeNs,
         publish_time: TimeNs,
         sequence: u32,
@@ -151,7 +151,7 @@ impl Recorder {
     /// See [`Logger::log_lossy`].
     pub fn log_lossy(
         &self,
-        ch: &ChannelHandle,
+        ch: &ChannelHandle<Untyped>,
         log_time: TimeNs,
         publish_time: TimeNs,
         sequence: u32,
@@ -163,7 +163,7 @@ impl Recorder {
     /// See [`Logger::log_json`].
     pub fn log_json<T: Serialize>(
         &self,
-        ch: &ChannelHandle,
+        ch: &ChannelHandle<T>,
         log_time: TimeNs,
         publish_time: TimeNs,
         sequence: u32,
@@ -175,7 +175,7 @@ impl Recorder {
     /// See [`Logger::log_json_lossy`].
     pub fn log_json_lossy<T: Serialize>(
         &self,
-        ch: &ChannelHandle,
+        ch: &ChannelHandle<T>,
         log_time: TimeNs,
         publish_time: TimeNs,
         sequence: u32,

@@ -55,6 +55,12 @@ pub(crate) fn quaternion(description: &str) -> Value {
     )
 }
 
+/// A protocol phase: one of the lower-case names of [`Phase`](slidetrack_core::Phase).
+pub(crate) fn phase(description: &str) -> Value {
+    let names = slidetrack_core::Phase::ALL.map(slidetrack_core::Phase::name);
+    json!({ "type": "string", "enum": names, "description": description })
+}
+
 /// A boolean.
 pub(crate) fn boolean(description: &str) -> Value {
     json!({ "type": "boolean", "description": description })

@@ -2,6 +2,7 @@
 //! registry and the state shared with the writer thread.
 
 use std::collections::{BTreeMap, HashMap};
+use std::marker::PhantomData;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
@@ -50,19 +51,73 @@ impl Default for RecorderOptions {
     }
 }
 
-/// A registered channel. Cheap to clone; valid only with the recorder that made it.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ChannelHandle {
+/// The message type of a channel registered with raw payloads
+/// ([`Logger::register_channel`]): any bytes, in the channel's own encoding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Untyped {}
+
+/// A registered channel whose messages are `T` (a [`ChannelMessage`], or
+/// [`Untyped`] bytes). Cheap to clone; valid only with the recorder that made
+/// it. Logging a message on a handle of another type does not compile:
+///
+/// ```
+/// # use slidetrack_core::TimeNs;
+/// # use slidetrack_session::{HandCommand, Recorder, TactileRaw};
+/// # fn record(rec: &Recorder) -> Result<(), slidetrack_session::SessionError> {
+/// let raw = rec.register::<TactileRaw>(Default::default())?;
+/// rec.log_json(&raw, TimeNs(0), TimeNs(0), 0, &TactileRaw::default())?;
+/// # Ok(()) }
+/// ```
+///
+/// ```compile_fail
+/// # use slidetrack_core::TimeNs;
+/// # use slidetrack_session::{HandCommand, Recorder, TactileRaw};
+/// # fn record(rec: &Recorder) -> Result<(), slidetrack_session::SessionError> {
+/// let hand = rec.register::<HandCommand>(Default::default())?;
+/// rec.log_json(&hand, TimeNs(0), TimeNs(0), 0, &TactileRaw::default())?; // a scan on /hand/command
+/// # Ok(()) }
+/// ```
+pub struct ChannelHandle<T = Untyped> {
     pub(crate) id: u16,
     topic: Arc<str>,
+    message: PhantomData<fn(&T)>,
 }
 
-impl ChannelHandle {
+impl<T> ChannelHandle<T> {
+    fn new(id: u16, topic: Arc<str>) -> ChannelHandle<T> {
+        ChannelHandle { id, topic, message: PhantomData }
+    }
+
+    /// The same channel, for raw payloads.
+    fn untyped(&self) -> ChannelHandle<Untyped> {
+        ChannelHandle::new(self.id, Arc::clone(&self.topic))
+    }
+
     /// The channel's topic.
     pub fn topic(&self) -> &str {
         &self.topic
     }
 }
+
+impl<T> Clone for ChannelHandle<T> {
+    fn clone(&self) -> Self {
+        ChannelHandle::new(self.id, Arc::clone(&self.topic))
+    }
+}
+
+impl<T> std::fmt::Debug for ChannelHandle<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ChannelHandle").field("id", &self.id).field("topic", &self.topic).finish()
+    }
+}
+
+impl<T> PartialEq for ChannelHandle<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.id == other.id && self.topic == other.topic
+    }
+}
+
+impl<T> Eq for ChannelHandle<T> {}
 
 /// Everything that defines a channel.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -89,7 +144,7 @@ pub(crate) struct Shared {
 #[derive(Default)]
 pub(crate) struct Registry {
     next_id: u32,
-    by_topic: HashMap<String, (ChannelHandle, ChannelRegistration)>,
+    by_topic: HashMap<String, (u16, ChannelRegistration)>,
 }
 
 pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -175,7 +230,7 @@ impl Logger {
         schema: &[u8],
         message_encoding: &str,
         channel_metadata: BTreeMap<String, String>,
-    ) -> Result<ChannelHandle, SessionError> {
+    ) -> Result<ChannelHandle<Untyped>, SessionError> {
         self.shared.check()?;
         let registration = ChannelRegistration {
             topic: topic.to_string(),
@@ -186,9 +241,9 @@ impl Logger {
             metadata: channel_metadata,
         };
         let mut reg = lock(&self.shared.registry);
-        if let Some((handle, existing)) = reg.by_topic.get(topic) {
+        if let Some((id, existing)) = reg.by_topic.get(topic) {
             if *existing == registration {
-                return Ok(handle.clone());
+                return Ok(ChannelHandle::new(*id, topic.into()));
             }
             return Err(SessionError::Channel {
                 path: self.shared.path.clone(),
@@ -197,8 +252,8 @@ impl Logger {
             });
         }
         let id = self.shared.alloc_id(&mut reg, topic)?;
-        let handle = ChannelHandle { id, topic: topic.into() };
-        reg.by_topic.insert(topic.to_string(), (handle.clone(), registration.clone()));
+        let handle = ChannelHandle::new(id, topic.into());
+        reg.by_topic.insert(topic.to_string(), (id, registration.clone()));
         // Send while holding the registry lock, so that no producer can log on
         // this channel before the writer thread has seen it.
         self.tx
@@ -211,23 +266,24 @@ impl Logger {
     pub fn register<T: ChannelMessage>(
         &self,
         channel_metadata: BTreeMap<String, String>,
-    ) -> Result<ChannelHandle, SessionError> {
+    ) -> Result<ChannelHandle<T>, SessionError> {
         let schema = T::json_schema().to_string();
-        self.register_channel(
+        let untyped = self.register_channel(
             T::TOPIC,
             T::SCHEMA_NAME,
             SCHEMA_ENCODING_JSONSCHEMA,
             schema.as_bytes(),
             MESSAGE_ENCODING_JSON,
             channel_metadata,
-        )
+        )?;
+        Ok(ChannelHandle::new(untyped.id, untyped.topic))
     }
 
     /// Queues a message, blocking while the queue is full: nothing logged
     /// here is ever dropped. Fails with the writer's error once a write failed.
     pub fn log(
         &self,
-        channel: &ChannelHandle,
+        channel: &ChannelHandle<Untyped>,
         log_time: TimeNs,
         publish_time: TimeNs,
         sequence: u32,
@@ -244,7 +300,7 @@ impl Logger {
     /// and counts a drop when it was not.
     pub fn log_lossy(
         &self,
-        channel: &ChannelHandle,
+        channel: &ChannelHandle<Untyped>,
         log_time: TimeNs,
         publish_time: TimeNs,
         sequence: u32,
@@ -276,7 +332,7 @@ impl Logger {
         Ok(accepted)
     }
 
-    fn encode<T: Serialize>(&self, channel: &ChannelHandle, message: &T) -> Result<Vec<u8>, SessionError> {
+    fn encode<T: Serialize>(&self, channel: &ChannelHandle<T>, message: &T) -> Result<Vec<u8>, SessionError> {
         serde_json::to_vec(message).map_err(|source| SessionError::Encode {
             path: self.shared.path.clone(),
             topic: channel.topic().to_string(),
@@ -287,27 +343,27 @@ impl Logger {
     /// [`Logger::log`] of `message` serialized as JSON.
     pub fn log_json<T: Serialize>(
         &self,
-        channel: &ChannelHandle,
+        channel: &ChannelHandle<T>,
         log_time: TimeNs,
         publish_time: TimeNs,
         sequence: u32,
         message: &T,
     ) -> Result<(), SessionError> {
         let payload = self.encode(channel, message)?;
-        self.log(channel, log_time, publish_time, sequence, payload)
+        self.log(&channel.untyped(), log_time, publish_time, sequence, payload)
     }
 
     /// [`Logger::log_lossy`] of `message` serialized as JSON.
     pub fn log_json_lossy<T: Serialize>(
         &self,
-        channel: &ChannelHandle,
+        channel: &ChannelHandle<T>,
         log_time: TimeNs,
         publish_time: TimeNs,
         sequence: u32,
         message: &T,
     ) -> Result<bool, SessionError> {
         let payload = self.encode(channel, message)?;
-        self.log_lossy(channel, log_time, publish_time, sequence, payload)
+        self.log_lossy(&channel.untyped(), log_time, publish_time, sequence, payload)
     }
 
     /// Queues an attachment (a calibration file, a config), stamped with the

@@ -127,8 +127,8 @@ struct DecodedHw<'a> {
 struct Output<'a> {
     args: &'a DecodeArgs,
     recorder: Recorder,
-    raw: ChannelHandle,
-    decoder: ChannelHandle,
+    raw: ChannelHandle<TactileRaw>,
+    decoder: ChannelHandle<TactileDecoder>,
     scans: u64,
     first: Option<TimeNs>,
     last: TimeNs,

@@ -4,8 +4,7 @@ use anyhow::{Context, Result};
 use slidetrack_core::{Finger, TimeNs};
 use slidetrack_experiment::plot::{PALETTE, Panel, Series, draw_stacked};
 use slidetrack_session::{
-    ArucoDetection, GraspControl, ProtocolEvent, ReadOptions, SessionError, SimTruth, TactileZeroed,
-    read_channel,
+    ArucoDetection, GraspControl, ReadOptions, SessionError, SimTruth, TactileZeroed, read_channel,
 };
 
 use crate::cli::{PlotArgs, PlotKind};
@@ -113,8 +112,7 @@ fn tactile_panels(file: &std::path::Path, opts: ReadOptions) -> Result<Vec<Panel
 /// Session time at which the hand opened, if it did: after it the object
 /// falls out of the hand, which is not what the plots are about.
 fn release_time(file: &std::path::Path, opts: ReadOptions) -> Result<TimeNs> {
-    let events = optional(read_channel::<ProtocolEvent>(file, opts))?;
-    Ok(events.iter().find(|(_, e)| e.phase == "release" || e.abort).map_or(TimeNs(u64::MAX), |(t, _)| *t))
+    Ok(slidetrack_session::release_time(file, opts)?.unwrap_or(TimeNs(u64::MAX)))
 }
 
 /// Marker position along the sliding axis, and the simulator's truth when

@@ -11,8 +11,8 @@ use slidetrack_calibration::ground_truth::{params_from_record, smooth_ground_tru
 use slidetrack_core::TimeNs;
 use slidetrack_experiment::plot::{PALETTE, Panel, Series};
 use slidetrack_session::{
-    ChannelMessage, GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding, ProtocolEvent,
-    ReadOptions, SessionError, SessionInfo, SimTruth, read_channel,
+    ChannelMessage, GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding, ReadOptions,
+    SessionError, SessionInfo, SimTruth, read_channel,
 };
 
 const GREY: plotters::style::RGBColor = plotters::style::RGBColor(110, 110, 110);
@@ -48,12 +48,7 @@ pub fn panels(file: &Path, opts: ReadOptions) -> Result<Vec<Panel>> {
         Err(SessionError::NoSuchTopic { .. }) => Vec::new(),
         other => other?,
     };
-    let events = match read_channel::<ProtocolEvent>(file, opts) {
-        Err(SessionError::NoSuchTopic { .. }) => Vec::new(),
-        other => other?,
-    };
-    let end =
-        events.iter().find(|(_, e)| e.phase == "release" || e.abort).map_or(TimeNs(u64::MAX), |(t, _)| *t);
+    let end = slidetrack_session::release_time(file, opts)?.unwrap_or(TimeNs(u64::MAX));
     let (mut sliding, mut measured, mut filtered) = (sliding, measured, filtered);
     sliding.retain(|(t, _)| *t <= end);
     measured.retain(|(t, _)| *t <= end);

@@ -22,12 +22,12 @@ pub const CAMERA_FRAME: &str = "camera";
 
 /// The channels of an RGB-D recording.
 pub struct RgbdChannels {
-    color: ChannelHandle,
-    depth: ChannelHandle,
-    mask: ChannelHandle,
-    truth: ChannelHandle,
-    vision_mask: ChannelHandle,
-    vision_pose: ChannelHandle,
+    color: ChannelHandle<RgbdColor>,
+    depth: ChannelHandle<RgbdDepth>,
+    mask: ChannelHandle<RgbdMask>,
+    truth: ChannelHandle<ObjectTruth>,
+    vision_mask: ChannelHandle<VisionMask>,
+    vision_pose: ChannelHandle<VisionPose>,
 }
 
 impl RgbdChannels {
@@ -119,30 +119,29 @@ impl RgbdChannels {
 
 /// The estimate channels of one tracker: `/estimate/pose/<tracker>`,
 /// `/estimate/transform/<tracker>` and `/estimate/velocity/<tracker>`.
-pub struct EstimateChannels {
-    kind: TrackerKind,
-    pose: ChannelHandle,
-    transform: ChannelHandle,
-    velocity: ChannelHandle,
+pub enum EstimateChannels {
+    /// MaskUKF's.
+    MaskUkf(ChannelHandle<MaskUkfPose>, ChannelHandle<MaskUkfTransform>, ChannelHandle<MaskUkfVelocity>),
+    /// ROFT's.
+    Roft(ChannelHandle<RoftPose>, ChannelHandle<RoftTransform>, ChannelHandle<RoftVelocity>),
 }
 
 impl EstimateChannels {
     /// Registers the channels of `kind`.
     pub fn register(logger: &Logger, kind: TrackerKind) -> Result<EstimateChannels, VisionError> {
         let none = BTreeMap::new;
-        let (pose, transform, velocity) = match kind {
-            TrackerKind::MaskUkf => (
-                logger.register::<MaskUkfPose>(none())?,
-                logger.register::<MaskUkfTransform>(none())?,
-                logger.register::<MaskUkfVelocity>(none())?,
+        Ok(match kind {
+            TrackerKind::MaskUkf => EstimateChannels::MaskUkf(
+                logger.register(none())?,
+                logger.register(none())?,
+                logger.register(none())?,
             ),
-            TrackerKind::Roft => (
-                logger.register::<RoftPose>(none())?,
-                logger.register::<RoftTransform>(none())?,
-                logger.register::<RoftVelocity>(none())?,
+            TrackerKind::Roft => EstimateChannels::Roft(
+                logger.register(none())?,
+                logger.register(none())?,
+                logger.register(none())?,
             ),
-        };
-        Ok(EstimateChannels { kind, pose, transform, velocity })
+        })
     }
 
     /// The topics, for messages.
@@ -157,23 +156,27 @@ impl EstimateChannels {
     pub fn log(&self, logger: &Logger, state: &TrackedState) -> Result<(), VisionError> {
         let t = state.t;
         let pose = PoseInFrame::new(t, CAMERA_FRAME, &state.estimate.camera_from_object);
-        let child = format!("object/{}", self.kind.name());
+        let kind = match self {
+            EstimateChannels::MaskUkf(..) => TrackerKind::MaskUkf,
+            EstimateChannels::Roft(..) => TrackerKind::Roft,
+        };
+        let child = format!("object/{}", kind.name());
         let transform = FrameTransform::new(t, CAMERA_FRAME, &child, &state.estimate.camera_from_object);
         let velocity = VelocityEstimate {
             frame_id: CAMERA_FRAME.into(),
             linear_velocity_mps: state.estimate.linear_velocity_mps.into(),
             angular_velocity_radps: state.estimate.angular_velocity_radps.into(),
         };
-        match self.kind {
-            TrackerKind::MaskUkf => {
-                logger.log_json(&self.pose, t, t, 0, &MaskUkfPose(pose))?;
-                logger.log_json(&self.transform, t, t, 0, &MaskUkfTransform(transform))?;
-                logger.log_json(&self.velocity, t, t, 0, &MaskUkfVelocity(velocity))?;
+        match self {
+            EstimateChannels::MaskUkf(p, tf, v) => {
+                logger.log_json(p, t, t, 0, &MaskUkfPose(pose))?;
+                logger.log_json(tf, t, t, 0, &MaskUkfTransform(transform))?;
+                logger.log_json(v, t, t, 0, &MaskUkfVelocity(velocity))?;
             }
-            TrackerKind::Roft => {
-                logger.log_json(&self.pose, t, t, 0, &RoftPose(pose))?;
-                logger.log_json(&self.transform, t, t, 0, &RoftTransform(transform))?;
-                logger.log_json(&self.velocity, t, t, 0, &RoftVelocity(velocity))?;
+            EstimateChannels::Roft(p, tf, v) => {
+                logger.log_json(p, t, t, 0, &RoftPose(pose))?;
+                logger.log_json(tf, t, t, 0, &RoftTransform(transform))?;
+                logger.log_json(v, t, t, 0, &RoftVelocity(velocity))?;
             }
         }
         Ok(())

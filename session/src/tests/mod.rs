@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use slidetrack_core::{CameraIntrinsics, EncodedImage, Finger, PerFinger, TaxelRef, TimeNs};
+use slidetrack_core::{CameraIntrinsics, EncodedImage, Finger, PerFinger, Phase, TaxelRef, TimeNs};
 
 use super::*;
 
@@ -115,11 +115,7 @@ impl EveryChannel {
             truth: vec![],
             events: vec![(
                 TimeNs::ZERO,
-                ProtocolEvent {
-                    phase: "tare".into(),
-                    message: "zeroing, \"hands off\"".into(),
-                    abort: false,
-                },
+                ProtocolEvent { phase: Phase::Zero, message: "zeroing, \"hands off\"".into(), abort: false },
             )],
         };
         let baseline = PerFinger::from_fn(|f| Xyz { x: 100.5, y: 200.25, z: 300.0 + f.index() as f64 });
@@ -138,8 +134,8 @@ impl EveryChannel {
                 desired: 500.0 + i as f64,
                 achieved: 499.5 + i as f64 - f.index() as f64,
             });
-            let phase = if i < n / 2 { "hold" } else { "slide" };
-            e.grasp.push((t, GraspControl { phase: phase.into(), reference: 1500.25, fingers }));
+            let phase = if i < n / 2 { Phase::Settle } else { Phase::Cycles };
+            e.grasp.push((t, GraspControl { phase, reference: 1500.25, fingers }));
             let volts = PerFinger::from_fn(|f| 1.5 + 0.25 * f.index() as f64);
             e.hand.push((t, HandCommand { volts, saturated: i % 5 == 0 }));
             let force = PerFinger::from_fn(|f: Finger| 2.0 + f.index() as f64);
@@ -176,7 +172,7 @@ impl EveryChannel {
         }
         e.events.push((
             t_ms(n),
-            ProtocolEvent { phase: "done".into(), message: "trial complete".into(), abort: false },
+            ProtocolEvent { phase: Phase::Done, message: "trial complete".into(), abort: false },
         ));
         e
     }

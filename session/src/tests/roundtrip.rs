@@ -137,7 +137,7 @@ fn csv_has_one_column_per_field_in_struct_order() {
     let mut out = Vec::new();
     export_csv(&path, ProtocolEvent::TOPIC, ReadOptions::default(), &mut out).unwrap();
     let text = String::from_utf8(out).unwrap();
-    assert_eq!(text.lines().nth(1), Some("0,tare,\"zeroing, \"\"hands off\"\"\",false"));
+    assert_eq!(text.lines().nth(1), Some("0,zero,\"zeroing, \"\"hands off\"\"\",false"));
 }
 
 #[test]
