@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fuzzes the tactile decoders for a bounded time: every target in
+# Fuzzes the tactile decoders and the session reader for a bounded time: every target in
 # fuzz_targets/ for SECONDS (default 60) each. Needs a nightly toolchain
 # (`rustup toolchain install nightly`), not cargo-fuzz: it builds the targets
 # with the coverage flags cargo-fuzz uses and runs libFuzzer directly.

@@ -9,13 +9,15 @@
 
 use std::collections::HashMap;
 use std::fmt;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Read, Seek, Write};
 use std::path::Path;
 
 use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 
 use super::error::SessionError;
-use super::reader::{ChannelDesc, MessageReader, RawMessage, ReadOptions, no_such_topic};
+use super::reader::{MessageReader, ReadOptions, no_such_topic};
+use super::scan::open_session;
+use super::stored::{ChannelDesc, RawMessage};
 
 /// Schemas whose channels are refused: their payload is an image, not a table.
 const IMAGE_SCHEMAS: [&str; 3] =
@@ -41,11 +43,60 @@ pub fn export_csv<W: Write>(
     out: W,
 ) -> Result<CsvSummary, SessionError> {
     let path = path.as_ref();
-    let mut fields = Vec::new();
+    let (mut file, _) = open_session(path)?;
+    export_csv_from_reader(path, &mut file, topic, options, out)
+}
 
-    // Pass 1: the columns.
+/// [`export_csv`] of the session held by `input` (from its start, for example
+/// a `Cursor` over the bytes of a file); `name` stands for the file in errors.
+pub fn export_csv_from_reader<R: Read + Seek, W: Write>(
+    name: impl AsRef<Path>,
+    mut input: R,
+    topic: &str,
+    options: ReadOptions,
+    out: W,
+) -> Result<CsvSummary, SessionError> {
+    let path = name.as_ref();
+    let columns = columns(path, &mut input, topic, options)?;
+
+    // Pass 2: the rows.
+    let output = |source| SessionError::Output { path: path.to_path_buf(), source };
+    let mut out = BufWriter::new(out);
+    let mut header = vec!["log_time_ns".to_string()];
+    header.extend(columns.iter().cloned());
+    write_row(&mut out, header.iter().map(|h| Some(Cell::Str(h.clone())))).map_err(output)?;
+    let index: HashMap<&str, usize> = columns.iter().enumerate().map(|(i, c)| (c.as_str(), i)).collect();
+    let mut rows = 0;
+    let mut fields = Vec::new();
+    let mut row: Vec<Option<Cell>> = Vec::new();
+    for message in MessageReader::from_reader(path, &mut input, &[topic], options)? {
+        let m = message?;
+        flatten(path, &m, &mut fields)?;
+        row.clear();
+        row.resize(columns.len() + 1, None);
+        row[0] = Some(Cell::Text(m.log_time.0.to_string()));
+        for (key, cell) in fields.drain(..) {
+            if let Some(&i) = index.get(key.as_str()) {
+                row[i + 1] = Some(cell);
+            }
+        }
+        write_row(&mut out, row.drain(..)).map_err(output)?;
+        rows += 1;
+    }
+    out.flush().map_err(output)?;
+    Ok(CsvSummary { rows, columns: header })
+}
+
+/// Pass 1: the leaf columns of every message of `topic`, in message order.
+fn columns<R: Read + Seek>(
+    path: &Path,
+    input: &mut R,
+    topic: &str,
+    options: ReadOptions,
+) -> Result<Vec<String>, SessionError> {
+    let mut fields = Vec::new();
     let mut columns: Vec<String> = Vec::new();
-    let mut reader = MessageReader::open(path, &[topic], options)?;
+    let mut reader = MessageReader::from_reader(path, input, &[topic], options)?;
     for message in reader.by_ref() {
         let m = message?;
         check_tabular(path, &m.channel)?;
@@ -68,32 +119,7 @@ pub fn export_csv<W: Write>(
         .cloned()
         .collect();
     columns.retain(|c| !parents.contains(c));
-
-    // Pass 2: the rows.
-    let output = |source| SessionError::Output { path: path.to_path_buf(), source };
-    let mut out = BufWriter::new(out);
-    let mut header = vec!["log_time_ns".to_string()];
-    header.extend(columns.iter().cloned());
-    write_row(&mut out, header.iter().map(|h| Some(Cell::Str(h.clone())))).map_err(output)?;
-    let index: HashMap<&str, usize> = columns.iter().enumerate().map(|(i, c)| (c.as_str(), i)).collect();
-    let mut rows = 0;
-    let mut row: Vec<Option<Cell>> = Vec::new();
-    for message in MessageReader::open(path, &[topic], options)? {
-        let m = message?;
-        flatten(path, &m, &mut fields)?;
-        row.clear();
-        row.resize(columns.len() + 1, None);
-        row[0] = Some(Cell::Text(m.log_time.0.to_string()));
-        for (key, cell) in fields.drain(..) {
-            if let Some(&i) = index.get(key.as_str()) {
-                row[i + 1] = Some(cell);
-            }
-        }
-        write_row(&mut out, row.drain(..)).map_err(output)?;
-        rows += 1;
-    }
-    out.flush().map_err(output)?;
-    Ok(CsvSummary { rows, columns: header })
+    Ok(columns)
 }
 
 fn check_tabular(path: &Path, c: &ChannelDesc) -> Result<(), SessionError> {

@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::messages::ChannelMessage;
-use super::schema::{self, array, boolean, number};
+use super::channel::ChannelMessage;
+use super::schema::derived;
 
 /// Channel metadata key of both ground-truth channels holding the
 /// [`GroundTruthParameters`] as JSON.
@@ -21,7 +21,7 @@ pub const GROUND_TRUTH_PREFIX: &str = "/ground_truth/";
 
 /// `/ground_truth/sliding`: the RTS-smoothed state `(p, v)` of the object
 /// along the sliding axis (thesis eq. 6.15), at the log time of a tactile scan.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct GroundTruthSliding {
     /// Position along the sliding axis, 0 at the first valid marker sample (m).
     pub position: f64,
@@ -36,27 +36,13 @@ impl ChannelMessage for GroundTruthSliding {
     const TOPIC: &'static str = "/ground_truth/sliding";
     const SCHEMA_NAME: &'static str = "slidetrack.GroundTruthSliding";
     fn json_schema() -> Value {
-        let row = |d: &str| array(d, number("covariance entry"), 2);
-        let covariance = array(
-            "covariance of (position, velocity), row-major: [[m^2, m^2/s], [m^2/s, m^2/s^2]]",
-            row("one row of the covariance"),
-            2,
-        );
-        schema::message(
-            Self::SCHEMA_NAME,
-            "Smoothed sliding state at a tactile scan (ground truth)",
-            vec![
-                ("position", number("position along the sliding axis, 0 at the first marker sample (m)")),
-                ("velocity", number("velocity along the sliding axis (m/s)")),
-                ("covariance", covariance),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
 /// `/ground_truth/measurements`: one marker position fed to the filter, at
 /// the log time of its camera frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct GroundTruthMeasurement {
     /// Marker position along the sliding axis, 0 at the first valid sample (m).
     pub position: f64,
@@ -71,15 +57,7 @@ impl ChannelMessage for GroundTruthMeasurement {
     const TOPIC: &'static str = "/ground_truth/measurements";
     const SCHEMA_NAME: &'static str = "slidetrack.GroundTruthMeasurement";
     fn json_schema() -> Value {
-        schema::message(
-            Self::SCHEMA_NAME,
-            "A marker position used for the ground truth",
-            vec![
-                ("position", number("marker position along the sliding axis (m)")),
-                ("rejected", boolean("the innovation gate rejected it as an outlier")),
-                ("mahalanobis2", number("squared Mahalanobis distance of its innovation")),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 

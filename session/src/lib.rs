@@ -4,10 +4,12 @@
 //! - [`Recorder`] writes a session on its own thread (zstd chunks closed at
 //!   least every second, so a killed process leaves a readable prefix).
 //! - [`SessionInfo`], [`MessageReader`] and [`read_json`] read one back with
-//!   bounded memory; [`export_csv`] flattens a channel to CSV.
+//!   bounded memory; [`export_csv`] flattens a channel to CSV. The
+//!   `from_reader` variants read a session from memory (any `Read + Seek`).
 //! - The message types of the channels are in [`messages`] and [`vision`];
 //!   the format is documented in `docs/session-format.md`.
 
+mod channel;
 mod csv;
 mod error;
 pub mod estimates;
@@ -16,9 +18,12 @@ pub mod messages;
 mod metadata;
 mod reader;
 mod recorder;
+mod records;
 mod rewrite;
 mod scan;
 mod schema;
+mod shared;
+mod stored;
 mod summary;
 pub mod vision;
 pub mod vision_pose;
@@ -28,8 +33,8 @@ mod writer_thread;
 #[cfg(test)]
 mod tests;
 
-pub use csv::{CsvSummary, export_csv};
-pub use error::SessionError;
+pub use csv::{CsvSummary, export_csv, export_csv_from_reader};
+pub use error::{Corruption, ReplaceStep, SessionError, WriteFailure};
 pub use estimates::{
     ArucoEstimate, DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate, TactileDerivative,
 };
@@ -39,13 +44,12 @@ pub use messages::{
     SimTruth, TactileDecoder, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz, channel_specs,
 };
 pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
-pub use reader::{
-    ChannelDesc, MessageReader, RawMessage, ReadOptions, read_channel, read_json, release_time,
-};
+pub use reader::{MessageReader, ReadOptions, read_channel, read_json, release_time};
 pub use recorder::Recorder;
 pub use rewrite::{NewChannel, NewMessage, RewriteReport, rewrite_session};
 pub use schema::JSON_SCHEMA_DIALECT;
-pub use summary::{AttachmentSummary, ChannelSummary, SessionInfo};
+pub use stored::{AttachmentSummary, ChannelDesc, RawMessage};
+pub use summary::{ChannelSummary, SessionInfo};
 pub use vision::{ArucoDetection, CameraCalibration, CompressedImage, FoxgloveTime, Quaternion};
 pub use vision_pose::{
     FrameTransform, ObjectTruth, PoseInFrame, RawImage, RgbdCalibration, RgbdColor, RgbdDepth, RgbdMask,

@@ -7,45 +7,13 @@
 
 use std::collections::BTreeMap;
 
-use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use slidetrack_core::{Finger, PerFinger, Phase, TactileInfo, TactileSample, TaxelRef};
 
-use super::schema::{self, boolean, number, per_finger, string, uint, xyz};
+use super::schema::{Fingers, PhaseName, derived, describe_fingers};
 
-/// Schema encoding of every JSON channel.
-pub const SCHEMA_ENCODING_JSONSCHEMA: &str = "jsonschema";
-/// Message encoding of every JSON channel.
-pub const MESSAGE_ENCODING_JSON: &str = "json";
-
-/// A message type with its own channel: JSON-encoded, described by a JSON Schema.
-pub trait ChannelMessage: Serialize + DeserializeOwned {
-    /// The channel's topic, for example `/tactile/raw`.
-    const TOPIC: &'static str;
-    /// The schema name, for example `slidetrack.TactileRaw`.
-    const SCHEMA_NAME: &'static str;
-    /// The JSON Schema describing exactly the serialized message.
-    fn json_schema() -> Value;
-}
-
-/// The topic, schema name and schema of one channel, for listings and docs.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ChannelSpec {
-    /// The channel's topic.
-    pub topic: &'static str,
-    /// The schema name.
-    pub schema_name: &'static str,
-    /// The JSON Schema.
-    pub schema: Value,
-}
-
-impl ChannelSpec {
-    /// The spec of `T`'s channel.
-    pub fn of<T: ChannelMessage>() -> ChannelSpec {
-        ChannelSpec { topic: T::TOPIC, schema_name: T::SCHEMA_NAME, schema: T::json_schema() }
-    }
-}
+pub use super::channel::{ChannelMessage, ChannelSpec, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
 
 /// Every channel slidetrack records, in the order of `docs/session-format.md`.
 pub fn channel_specs() -> Vec<ChannelSpec> {
@@ -75,7 +43,7 @@ pub fn channel_specs() -> Vec<ChannelSpec> {
 }
 
 /// Three components along the x, y and z axes of a tactile module's frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Xyz<T> {
     /// Along x.
     pub x: T,
@@ -99,12 +67,14 @@ impl<T: Copy> Xyz<T> {
 
 /// `/tactile/raw`: one scan of the three fingertip modules, raw counts as the
 /// device sent them (never tared, never overwritten).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[schemars(transform = describe_fingers("raw counts of the {finger} module (0-65535)"))]
 pub struct TactileRaw {
     /// The device's own scan counter.
     pub sequence: u64,
     /// Raw counts per finger and axis.
     #[serde(flatten)]
+    #[schemars(with = "Fingers<Xyz<u16>>")]
     pub counts: PerFinger<Xyz<u16>>,
 }
 
@@ -118,13 +88,7 @@ impl ChannelMessage for TactileRaw {
     const TOPIC: &'static str = "/tactile/raw";
     const SCHEMA_NAME: &'static str = "slidetrack.TactileRaw";
     fn json_schema() -> Value {
-        let mut props = vec![("sequence", uint("the device's scan counter", u64::MAX))];
-        props.extend(schema::finger_properties(|f| {
-            xyz(&format!("raw counts of the {f} module"), |a| {
-                uint(&format!("raw {a} count"), u16::MAX.into())
-            })
-        }));
-        schema::message(Self::SCHEMA_NAME, "One scan of the fingertip modules, raw counts", props)
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
@@ -179,11 +143,12 @@ impl TaxelLayout {
 
 /// `/tactile/tare`: the baseline was (re)zeroed. Later `/tactile/zeroed`
 /// messages subtract this baseline.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TactileTare {
     /// Scans averaged into the baseline.
     pub samples: u32,
-    /// Baseline per finger and axis (counts).
+    /// Baseline per finger and axis: the mean raw value (counts).
+    #[schemars(with = "Fingers<Xyz<f64>>")]
     pub baseline: PerFinger<Xyz<f64>>,
 }
 
@@ -191,27 +156,17 @@ impl ChannelMessage for TactileTare {
     const TOPIC: &'static str = "/tactile/tare";
     const SCHEMA_NAME: &'static str = "slidetrack.TactileTare";
     fn json_schema() -> Value {
-        let baseline = per_finger("baseline per finger (counts)", |f| {
-            xyz(&format!("baseline of the {f} module (counts)"), |a| {
-                number(&format!("{a} baseline (counts)"))
-            })
-        });
-        schema::message(
-            Self::SCHEMA_NAME,
-            "The tactile baseline was (re)zeroed",
-            vec![
-                ("samples", uint("scans averaged into the baseline", u32::MAX.into())),
-                ("baseline", baseline),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
 /// `/tactile/zeroed`: one scan minus the current baseline (counts).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(transparent)]
+#[schemars(transform = describe_fingers("{finger} module, raw counts minus the baseline (counts)"))]
 pub struct TactileZeroed {
     /// Counts minus baseline, per finger and axis.
+    #[schemars(with = "Fingers<Xyz<f64>>")]
     pub counts: PerFinger<Xyz<f64>>,
 }
 
@@ -219,16 +174,15 @@ impl ChannelMessage for TactileZeroed {
     const TOPIC: &'static str = "/tactile/zeroed";
     const SCHEMA_NAME: &'static str = "slidetrack.TactileZeroed";
     fn json_schema() -> Value {
-        let props = schema::finger_properties(|f| {
-            xyz(&format!("{f} module, counts minus baseline"), |a| number(&format!("{a} (counts)")))
-        });
-        schema::message(Self::SCHEMA_NAME, "One scan minus the baseline (counts)", props)
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
 /// `/tactile/decoder`: the counters of the tactile device's decoder (real
-/// rigs and decoded captures), see [`slidetrack_core::DecoderCounters`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// rigs and decoded captures) since the device was opened.
+///
+/// The same counters as `slidetrack_core::DecoderCounters`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TactileDecoder {
     /// Frames decoded intact.
     pub frames: u64,
@@ -264,25 +218,12 @@ impl ChannelMessage for TactileDecoder {
     const TOPIC: &'static str = "/tactile/decoder";
     const SCHEMA_NAME: &'static str = "slidetrack.TactileDecoder";
     fn json_schema() -> Value {
-        let count = |d: &str| uint(d, u64::MAX);
-        schema::message(
-            Self::SCHEMA_NAME,
-            "Counters of the tactile decoder since the device was opened",
-            vec![
-                ("frames", count("frames decoded intact")),
-                ("crc_errors", count("frames that arrived in sync but failed their CRC")),
-                ("resyncs", count("times the decoder lost and found the frame boundaries")),
-                ("bytes_skipped", count("bytes discarded while resynchronising")),
-                ("gaps", count("breaks in a module's sequence counter")),
-                ("incomplete_scans", count("scans dropped because a frame or mapped taxel was missing")),
-                ("invalid_samples", count("taxel samples the sensor marked invalid")),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
 /// Desired and achieved baseline-subtracted normal (z) value of one finger (counts).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct FingerSetpoint {
     /// What the controller asks for (counts).
     pub desired: f64,
@@ -291,14 +232,17 @@ pub struct FingerSetpoint {
 }
 
 /// `/control/grasp`: one step of the grasp controller.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[schemars(transform = describe_fingers("{finger}: baseline-subtracted z, desired and achieved (counts)"))]
 pub struct GraspControl {
     /// The protocol's phase (`zero`, `close`, `ramp`, `settle`, `cycles`, ...).
+    #[schemars(with = "PhaseName")]
     pub phase: Phase,
     /// The generalised grasp strength reference tau_g,des (counts).
     pub reference: f64,
     /// Desired and achieved z per finger (counts, baseline subtracted).
     #[serde(flatten)]
+    #[schemars(with = "Fingers<FingerSetpoint>")]
     pub fingers: PerFinger<FingerSetpoint>,
 }
 
@@ -306,25 +250,17 @@ impl ChannelMessage for GraspControl {
     const TOPIC: &'static str = "/control/grasp";
     const SCHEMA_NAME: &'static str = "slidetrack.GraspControl";
     fn json_schema() -> Value {
-        let mut props = vec![
-            ("phase", schema::phase("the protocol's phase")),
-            ("reference", number("generalised grasp strength reference tau_g,des (counts)")),
-        ];
-        props.extend(schema::finger_properties(|f| {
-            schema::closed_object(
-                &format!("{f}: baseline-subtracted z (counts)"),
-                vec![("desired", number("desired z (counts)")), ("achieved", number("measured z (counts)"))],
-            )
-        }));
-        schema::message(Self::SCHEMA_NAME, "One step of the grasp controller", props)
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
 /// `/hand/command`: the voltages sent to the hand.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[schemars(transform = describe_fingers("{finger} command voltage (V)"))]
 pub struct HandCommand {
     /// Command per finger (V).
     #[serde(flatten)]
+    #[schemars(with = "Fingers<f64>")]
     pub volts: PerFinger<f64>,
     /// True when a command was clipped to the actuator's range.
     pub saturated: bool,
@@ -334,14 +270,12 @@ impl ChannelMessage for HandCommand {
     const TOPIC: &'static str = "/hand/command";
     const SCHEMA_NAME: &'static str = "slidetrack.HandCommand";
     fn json_schema() -> Value {
-        let mut props = schema::finger_properties(|f| number(&format!("{f} command (V)")));
-        props.push(("saturated", boolean("a command was clipped to the actuator's range")));
-        schema::message(Self::SCHEMA_NAME, "Voltages sent to the hand", props)
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
 /// `/sim/truth`: the simulator's ground truth (simulated sessions only).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct SimTruth {
     /// Object position along the sliding axis (m).
     pub position: f64,
@@ -352,8 +286,10 @@ pub struct SimTruth {
     /// True while the object rests on its support.
     pub supported: bool,
     /// Normal force per finger (N).
+    #[schemars(with = "Fingers<f64>")]
     pub normal_force: PerFinger<f64>,
     /// Friction force per finger along the sliding axis (N).
+    #[schemars(with = "Fingers<f64>")]
     pub friction_force: PerFinger<f64>,
 }
 
@@ -361,33 +297,15 @@ impl ChannelMessage for SimTruth {
     const TOPIC: &'static str = "/sim/truth";
     const SCHEMA_NAME: &'static str = "slidetrack.SimTruth";
     fn json_schema() -> Value {
-        schema::message(
-            Self::SCHEMA_NAME,
-            "Simulator ground truth",
-            vec![
-                ("position", number("object position along the sliding axis (m)")),
-                ("velocity", number("object velocity along the sliding axis (m/s)")),
-                ("sliding", boolean("the object slides relative to the fingers")),
-                ("supported", boolean("the object rests on its support")),
-                (
-                    "normal_force",
-                    per_finger("normal force (N)", |f| number(&format!("{f} normal force (N)"))),
-                ),
-                (
-                    "friction_force",
-                    per_finger("friction force along the sliding axis (N)", |f| {
-                        number(&format!("{f} friction force (N)"))
-                    }),
-                ),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
 /// `/protocol/events`: a step of the trial protocol, or an abort.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ProtocolEvent {
     /// The protocol phase entered or running.
+    #[schemars(with = "PhaseName")]
     pub phase: Phase,
     /// What happened, for people.
     pub message: String,
@@ -406,20 +324,12 @@ impl ChannelMessage for ProtocolEvent {
     const TOPIC: &'static str = "/protocol/events";
     const SCHEMA_NAME: &'static str = "slidetrack.ProtocolEvent";
     fn json_schema() -> Value {
-        schema::message(
-            Self::SCHEMA_NAME,
-            "A step of the trial protocol",
-            vec![
-                ("phase", schema::phase("protocol phase")),
-                ("message", string("what happened")),
-                ("abort", boolean("this event aborts the trial")),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
 /// `/recorder/stats`: written once by the recorder when it finishes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct RecorderStats {
     /// Messages written before this one.
     pub messages_written: u64,
@@ -431,13 +341,6 @@ impl ChannelMessage for RecorderStats {
     const TOPIC: &'static str = "/recorder/stats";
     const SCHEMA_NAME: &'static str = "slidetrack.RecorderStats";
     fn json_schema() -> Value {
-        schema::message(
-            Self::SCHEMA_NAME,
-            "Recorder statistics, written when the recording finishes",
-            vec![
-                ("messages_written", uint("messages written before this one", u64::MAX)),
-                ("images_dropped", uint("images dropped because the queue was full", u64::MAX)),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }

@@ -1,16 +1,17 @@
 //! Reading messages back, in file order, with bounded memory.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::HashSet;
 use std::fs::File;
+use std::io::{Read, Seek};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use serde::de::DeserializeOwned;
 use slidetrack_core::TimeNs;
 
-use super::error::SessionError;
-use super::messages::ChannelMessage;
-use super::scan::{Event, Scanner, corrupt, footer_summary_start, open_session, truncated_error};
+use super::channel::ChannelMessage;
+use super::error::{SessionError, error_chain};
+use super::scan::{Event, Scanner, check_session, footer_summary_start, open_session, truncated_error};
+use super::stored::{ChannelDesc, RawMessage};
 
 /// How to read a session file.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -28,47 +29,11 @@ impl ReadOptions {
     }
 }
 
-/// A channel as declared in the file.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ChannelDesc {
-    /// The channel id in the file.
-    pub id: u16,
-    /// The topic, for example `/tactile/raw`.
-    pub topic: String,
-    /// Schema name, empty when the channel has none.
-    pub schema_name: String,
-    /// Schema encoding (`jsonschema`), empty when the channel has none.
-    pub schema_encoding: String,
-    /// Message encoding (`json`).
-    pub message_encoding: String,
-    /// Channel metadata (the taxel layout on `/tactile/raw`).
-    pub metadata: BTreeMap<String, String>,
-}
-
-/// One message as stored.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct RawMessage {
-    /// The channel it was published on.
-    pub channel: Arc<ChannelDesc>,
-    /// Host acquisition time on the session clock.
-    pub log_time: TimeNs,
-    /// The device's timestamp, or `log_time` when the device has none.
-    pub publish_time: TimeNs,
-    /// The device's frame counter (low 32 bits).
-    pub sequence: u32,
-    /// The payload (JSON for slidetrack's channels).
-    pub data: Vec<u8>,
-}
-
-impl RawMessage {
-    /// The channel's topic.
-    pub fn topic(&self) -> &str {
-        &self.channel.topic
-    }
-}
-
 /// Iterates over the messages of a session file in file order (log-time
 /// order for files written by [`super::Recorder`]), holding one chunk at a time.
+///
+/// [`MessageReader::open`] reads a file; [`MessageReader::from_reader`] reads
+/// any seekable input (a session in memory).
 ///
 /// # Contract
 /// - `open` fails when the file is missing, empty, not MCAP, or (without
@@ -76,8 +41,8 @@ impl RawMessage {
 /// - Without `recover`, a corrupt record yields one `Err` and ends the
 ///   iteration. With `recover`, reading stops quietly at the first corrupt or
 ///   incomplete chunk and [`MessageReader::truncated`] turns true.
-pub struct MessageReader {
-    scan: Scanner<File>,
+pub struct MessageReader<R = File> {
+    scan: Scanner<R>,
     recover: bool,
     truncated: bool,
 }
@@ -86,21 +51,50 @@ impl MessageReader {
     /// Opens `path`, yielding only messages on `topics` (every topic when empty).
     pub fn open(path: impl AsRef<Path>, topics: &[&str], options: ReadOptions) -> Result<Self, SessionError> {
         let path = path.as_ref();
-        let (mut file, size) = open_session(path)?;
+        let (file, size) = open_session(path)?;
+        MessageReader::start(path, file, size, topics, options)
+    }
+}
+
+impl<R: Read + Seek> MessageReader<R> {
+    /// Reads the session held by `input` (from its start, for example a
+    /// `Cursor` over the bytes of a file), yielding only messages on `topics`
+    /// (every topic when empty). `name` stands for the file in errors and
+    /// [`MessageReader::path`]. Fails as [`MessageReader::open`] does.
+    pub fn from_reader(
+        name: impl AsRef<Path>,
+        mut input: R,
+        topics: &[&str],
+        options: ReadOptions,
+    ) -> Result<Self, SessionError> {
+        let name = name.as_ref();
+        let size = check_session(name, &mut input)?;
+        MessageReader::start(name, input, size, topics, options)
+    }
+
+    fn start(
+        path: &Path,
+        mut input: R,
+        size: u64,
+        topics: &[&str],
+        options: ReadOptions,
+    ) -> Result<Self, SessionError> {
         let read_err = |source| SessionError::Read { path: path.to_path_buf(), source };
-        let complete = footer_summary_start(&mut file, size).map_err(read_err)?.is_some();
+        let complete = footer_summary_start(&mut input, size).map_err(read_err)?.is_some();
         if !complete && !options.recover {
-            return Err(truncated_error(path, file));
+            return Err(truncated_error(path, input));
         }
         let topics: Option<HashSet<String>> =
             (!topics.is_empty()).then(|| topics.iter().map(|t| t.to_string()).collect());
         Ok(MessageReader {
-            scan: Scanner::new(path, file, topics, true),
+            scan: Scanner::new(path, input, topics, true),
             recover: options.recover,
             truncated: false,
         })
     }
+}
 
+impl<R> MessageReader<R> {
     /// True once reading stopped early at an incomplete or corrupt chunk
     /// (only with `recover`).
     pub fn truncated(&self) -> bool {
@@ -118,7 +112,7 @@ impl MessageReader {
     }
 }
 
-impl Iterator for MessageReader {
+impl<R: Read> Iterator for MessageReader<R> {
     type Item = Result<RawMessage, SessionError>;
 
     fn next(&mut self) -> Option<Self::Item> {
@@ -128,11 +122,12 @@ impl Iterator for MessageReader {
                 Ok(Some(_)) => {}
                 Ok(None) => return None,
                 Err(e) if self.recover => {
-                    tracing::debug!("{}: reading stopped: {}", self.scan.path.display(), e.detail);
+                    let e = e.into_session_error(&self.scan.path);
+                    tracing::debug!("reading stopped: {}", error_chain(&e));
                     self.truncated = true;
                     return None;
                 }
-                Err(e) => return Some(Err(corrupt(&self.scan.path, e))),
+                Err(e) => return Some(Err(e.into_session_error(&self.scan.path))),
             }
         }
     }

@@ -10,11 +10,13 @@ use std::thread::JoinHandle;
 use serde::Serialize;
 use slidetrack_core::TimeNs;
 
-use super::error::SessionError;
-use super::messages::{ChannelMessage, RecorderStats};
+use super::channel::ChannelMessage;
+use super::error::{SessionError, error_chain};
+use super::messages::RecorderStats;
 use super::metadata::SESSION_METADATA;
-use super::writer::{ChannelHandle, Logger, RecorderOptions, Shared, Untyped};
-use super::writer_thread::{Command, SessionSink, WriterThread};
+use super::shared::{Command, Shared};
+use super::writer::{ChannelHandle, Logger, RecorderOptions, Untyped};
+use super::writer_thread::{SessionSink, WriterThread};
 
 /// Records one session to one MCAP file.
 ///
@@ -246,7 +248,7 @@ impl Drop for Recorder {
         if self.thread.is_some() {
             let reason = "the recorder was dropped without finish (early return or panic)".to_string();
             if let Err(e) = self.finish_inner(Some((false, Some(reason)))) {
-                tracing::warn!("{e}");
+                tracing::warn!("{}", error_chain(&e));
             }
         }
     }

@@ -9,26 +9,23 @@
 //! The output depends only on the kept records and the new channels, so
 //! rewriting a file twice with the same new channels gives the same bytes.
 
-use std::borrow::Cow;
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+mod merge;
+
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs::File;
-use std::io::BufWriter;
+use std::io::{BufWriter, Read};
 use std::path::{Path, PathBuf};
 
-use mcap::records::{self, MessageHeader, Metadata, Record, op};
-use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::Serialize;
 use slidetrack_core::TimeNs;
 
-use super::error::SessionError;
-use super::messages::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
+use super::channel::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
+use super::error::{ReplaceStep, SessionError, WriteFailure};
 use super::reader::ReadOptions;
-use super::scan::{
-    RECORD_LENGTH_LIMIT, chunk_reader, footer_summary_start, open_session, read_full, truncated_error,
-};
+use super::records::{Payloads, Record, RecordStream, parse_header};
+use super::scan::{footer_summary_start, open_session, truncated_error};
+use merge::Merge;
 
-/// The most bytes read from the file at once.
-const READ_BLOCK: usize = 1 << 20;
 /// Chunks of the rewritten file close at this uncompressed size (bytes), as the recorder's do.
 const CHUNK_SIZE_BYTES: u64 = 4 << 20;
 
@@ -103,14 +100,23 @@ pub struct RewriteReport {
     pub truncated: bool,
 }
 
-/// One record of the input, owned.
+/// One record to copy: the header (parsed), or any other record up to the
+/// end of the data section.
 enum Item {
-    Header(records::Header),
-    Schema { id: u16, name: String, encoding: String, data: Vec<u8> },
-    Channel(records::Channel),
-    Message { header: MessageHeader, data: Vec<u8> },
-    Attachment(mcap::Attachment<'static>),
-    Metadata(Metadata),
+    Header(mcap::records::Header),
+    Record(Record),
+}
+
+/// The next record of `records` to copy; `Ok(None)` at the end of the data
+/// section. Indexes, statistics and the summary are rebuilt by the writer.
+fn next_item<R: Read>(path: &Path, records: &mut RecordStream<R>) -> Result<Option<Item>, SessionError> {
+    match records.next_record().map_err(|e| e.into_session_error(path))? {
+        None | Some(Record::DataEnd) => Ok(None),
+        Some(Record::Header(body)) => parse_header(&body).map(|h| Some(Item::Header(h))).map_err(|source| {
+            SessionError::Corrupt { path: path.to_path_buf(), bytes_read: records.bytes_read(), source }
+        }),
+        Some(record) => Ok(Some(Item::Record(record))),
+    }
 }
 
 /// Replaces the channels whose topic `drop` accepts (and those on the topics
@@ -148,13 +154,11 @@ pub fn rewrite_session(
         .tempfile_in(&dir)
         .map_err(|source| SessionError::Create { path: dir.join(format!(".{name}.*.tmp")), source })?;
     let report = copy(path, temp.as_file(), &survey, add)?;
-    let write_err = |kind, detail: String| SessionError::Write { path: path.to_path_buf(), kind, detail };
-    let io_err = |e: std::io::Error, what: &str| write_err(Some(e.kind()), format!("{what}: {e}"));
-    temp.as_file().sync_all().map_err(|e| io_err(e, "sync of the rewritten file"))?;
-    let permissions =
-        std::fs::metadata(path).map_err(|e| io_err(e, "cannot read permissions"))?.permissions();
-    std::fs::set_permissions(temp.path(), permissions).map_err(|e| io_err(e, "cannot set permissions"))?;
-    temp.persist(path).map_err(|e| io_err(e.error, "cannot replace the original"))?;
+    let replace = |step| move |source| SessionError::Replace { path: path.to_path_buf(), step, source };
+    temp.as_file().sync_all().map_err(replace(ReplaceStep::Sync))?;
+    let permissions = std::fs::metadata(path).map_err(replace(ReplaceStep::ReadPermissions))?.permissions();
+    std::fs::set_permissions(temp.path(), permissions).map_err(replace(ReplaceStep::SetPermissions))?;
+    temp.persist(path).map_err(|e| replace(ReplaceStep::Rename)(e.error))?;
     if let Ok(d) = File::open(&dir) {
         // Makes the rename durable; not all file systems allow it.
         let _ = d.sync_all();
@@ -182,7 +186,7 @@ fn survey(path: &Path, options: ReadOptions, dropped: &dyn Fn(&str) -> bool) -> 
     if !complete && !options.recover {
         return Err(truncated_error(path, file));
     }
-    let mut items = Items::new(path, file);
+    let mut records = RecordStream::new(file, Payloads::None);
     let (mut count, mut truncated) = (0u64, false);
     let mut schemas = BTreeSet::new();
     let mut kept_schemas = BTreeSet::new();
@@ -190,8 +194,12 @@ fn survey(path: &Path, options: ReadOptions, dropped: &dyn Fn(&str) -> bool) -> 
     let mut dropped_channels = BTreeSet::new();
     let mut max_channel = None::<u32>;
     loop {
-        let item = match items.next_item() {
-            Ok(Some(item)) => item,
+        let item = match next_item(path, &mut records) {
+            Ok(Some(Item::Record(record))) => record,
+            Ok(Some(Item::Header(_))) => {
+                count += 1;
+                continue;
+            }
             Ok(None) => break,
             Err(_) if options.recover => {
                 truncated = true;
@@ -201,15 +209,15 @@ fn survey(path: &Path, options: ReadOptions, dropped: &dyn Fn(&str) -> bool) -> 
         };
         count += 1;
         match item {
-            Item::Channel(c) if dropped(&c.topic) => {
+            Record::Channel(c) if dropped(&c.topic) => {
                 dropped_channels.insert(c.id);
                 schemas_of_dropped.insert(c.schema_id);
             }
-            Item::Channel(c) => {
+            Record::Channel(c) => {
                 kept_schemas.insert(c.schema_id);
                 max_channel = max_channel.max(Some(u32::from(c.id)));
             }
-            Item::Schema { id, .. } => {
+            Record::Schema { id, .. } => {
                 schemas.insert(id);
             }
             _ => {}
@@ -237,49 +245,29 @@ fn copy(
     add: Vec<NewChannel>,
 ) -> Result<RewriteReport, SessionError> {
     let fail = |e: mcap::McapError| {
-        let kind = match &e {
-            mcap::McapError::Io(io) => Some(io.kind()),
-            _ => None,
-        };
-        SessionError::Write { path: path.to_path_buf(), kind, detail: format!("rewriting: {e}") }
+        let source = WriteFailure::from(e);
+        SessionError::Write { path: path.to_path_buf(), kind: source.io_kind(), source }
     };
     let (file, _) = open_session(path)?;
-    let mut items = Items::new(path, file);
+    let mut records = RecordStream::new(file, Payloads::All);
     let mut writer: Option<Writer<'_>> = None;
     let mut merge = Merge::new(path, add, survey)?;
     let mut report = RewriteReport { truncated: survey.truncated, ..RewriteReport::default() };
     for _ in 0..survey.items {
-        let Some(item) = items.next_item()? else { break };
-        let w = match (&mut writer, &item) {
-            (Some(w), _) => w,
+        let Some(item) = next_item(path, &mut records)? else { break };
+        let record = match (&mut writer, item) {
             (None, Item::Header(h)) => {
                 writer = Some(new_writer(out, &h.profile, &h.library).map_err(fail)?);
                 continue;
             }
-            (None, _) => writer.insert(new_writer(out, "", "").map_err(fail)?),
+            (Some(_), Item::Header(_)) => continue,
+            (_, Item::Record(record)) => record,
         };
-        match item {
-            Item::Header(_) => {}
-            Item::Schema { id, .. } if survey.dropped_schemas.contains(&id) => {}
-            Item::Schema { id, name, encoding, data } => {
-                w.add_schema_with_id(id, &name, &encoding, &data).map_err(fail)?;
-            }
-            Item::Channel(c) if survey.dropped_channels.contains(&c.id) => {}
-            Item::Channel(c) => {
-                w.add_channel_with_id(c.id, c.schema_id, &c.topic, &c.message_encoding, &c.metadata)
-                    .map_err(fail)?;
-            }
-            Item::Message { header, .. } if survey.dropped_channels.contains(&header.channel_id) => {
-                report.messages_dropped += 1;
-            }
-            Item::Message { header, data } => {
-                report.messages_added += merge.write_before(w, TimeNs(header.log_time)).map_err(fail)?;
-                w.write_to_known_channel(&header, &data).map_err(fail)?;
-                report.messages_copied += 1;
-            }
-            Item::Attachment(a) => w.attach(&a).map_err(fail)?,
-            Item::Metadata(m) => w.write_metadata(&m).map_err(fail)?,
-        }
+        let w = match &mut writer {
+            Some(w) => w,
+            None => writer.insert(new_writer(out, "", "").map_err(fail)?),
+        };
+        write_record(w, record, survey, &mut merge, &mut report).map_err(fail)?;
     }
     let w = match &mut writer {
         Some(w) => w,
@@ -295,6 +283,39 @@ fn copy(
     Ok(report)
 }
 
+/// Copies one record unless its channel or schema is dropped, after the new
+/// messages that come before it.
+fn write_record(
+    w: &mut Writer<'_>,
+    record: Record,
+    survey: &Survey,
+    merge: &mut Merge,
+    report: &mut RewriteReport,
+) -> Result<(), mcap::McapError> {
+    match record {
+        Record::Header(_) | Record::DataEnd => {}
+        Record::Schema { id, .. } if survey.dropped_schemas.contains(&id) => {}
+        Record::Schema { id, name, encoding, data } => {
+            w.add_schema_with_id(id, &name, &encoding, &data)?;
+        }
+        Record::Channel(c) if survey.dropped_channels.contains(&c.id) => {}
+        Record::Channel(c) => {
+            w.add_channel_with_id(c.id, c.schema_id, &c.topic, &c.message_encoding, &c.metadata)?;
+        }
+        Record::Message { header, .. } if survey.dropped_channels.contains(&header.channel_id) => {
+            report.messages_dropped += 1;
+        }
+        Record::Message { header, data } => {
+            report.messages_added += merge.write_before(w, TimeNs(header.log_time))?;
+            w.write_to_known_channel(&header, &data)?;
+            report.messages_copied += 1;
+        }
+        Record::Attachment(a) => w.attach(&a)?,
+        Record::Metadata(m) => w.write_metadata(&m)?,
+    }
+    Ok(())
+}
+
 fn new_writer<'a>(out: &'a File, profile: &str, library: &str) -> Result<Writer<'a>, mcap::McapError> {
     let options = mcap::WriteOptions::new()
         .compression(Some(mcap::Compression::Zstd))
@@ -304,222 +325,6 @@ fn new_writer<'a>(out: &'a File, profile: &str, library: &str) -> Result<Writer<
         .profile(profile)
         .library(library);
     mcap::Writer::with_options(BufWriter::with_capacity(256 << 10, out), options)
-}
-
-/// The new channels, written in log-time order among the copied messages.
-struct Merge {
-    channels: Vec<(NewChannel, u16, u16, bool)>,
-    /// Next message per channel.
-    cursor: Vec<usize>,
-}
-
-impl Merge {
-    fn new(path: &Path, add: Vec<NewChannel>, survey: &Survey) -> Result<Merge, SessionError> {
-        let mut channels = Vec::with_capacity(add.len());
-        for (k, channel) in add.into_iter().enumerate() {
-            let k = k as u32;
-            let schema_id = u16::try_from(survey.next_schema_id + k);
-            let channel_id = u16::try_from(survey.next_channel_id + k);
-            let (Ok(schema_id), Ok(channel_id)) = (schema_id, channel_id) else {
-                return Err(SessionError::Channel {
-                    path: path.to_path_buf(),
-                    topic: channel.topic,
-                    detail: "no free schema or channel id".into(),
-                });
-            };
-            channels.push((channel, schema_id, channel_id, false));
-        }
-        let cursor = vec![0; channels.len()];
-        Ok(Merge { channels, cursor })
-    }
-
-    /// Writes every pending new message with a log time before `t`, oldest
-    /// first (ties in the order of the channels); returns how many.
-    fn write_before(&mut self, w: &mut Writer<'_>, t: TimeNs) -> Result<u64, mcap::McapError> {
-        let mut written = 0;
-        loop {
-            let next = (0..self.channels.len())
-                .filter_map(|k| self.channels[k].0.messages.get(self.cursor[k]).map(|m| (m.log_time, k)))
-                .filter(|(log_time, _)| *log_time < t)
-                .min();
-            let Some((_, k)) = next else { return Ok(written) };
-            Self::declare(w, &mut self.channels[k])?;
-            let (channel, _, channel_id, _) = &self.channels[k];
-            let m = &channel.messages[self.cursor[k]];
-            let header = MessageHeader {
-                channel_id: *channel_id,
-                sequence: m.sequence,
-                log_time: m.log_time.0,
-                publish_time: m.publish_time.0,
-            };
-            w.write_to_known_channel(&header, &m.data)?;
-            self.cursor[k] += 1;
-            written += 1;
-        }
-    }
-
-    /// Declares the channels that had no message.
-    fn declare_empty(&mut self, w: &mut Writer<'_>) -> Result<(), mcap::McapError> {
-        self.channels.iter_mut().try_for_each(|c| Self::declare(w, c))
-    }
-
-    fn declare(w: &mut Writer<'_>, entry: &mut (NewChannel, u16, u16, bool)) -> Result<(), mcap::McapError> {
-        let (c, schema_id, channel_id, declared) = entry;
-        if !*declared {
-            let schema_id = if c.schema_name.is_empty() && c.schema_encoding.is_empty() {
-                0
-            } else {
-                w.add_schema_with_id(*schema_id, &c.schema_name, &c.schema_encoding, &c.schema)?
-            };
-            w.add_channel_with_id(*channel_id, schema_id, &c.topic, &c.message_encoding, &c.metadata)?;
-            *declared = true;
-        }
-        Ok(())
-    }
-}
-
-/// The records of a file in order, chunks opened, with bounded memory (one
-/// chunk at a time). A chunk's records are handed out only once the whole
-/// chunk has been read and its CRC checked.
-struct Items {
-    path: PathBuf,
-    input: File,
-    reader: LinearReader,
-    bytes_read: u64,
-    pending: VecDeque<Item>,
-}
-
-impl Items {
-    fn new(path: &Path, input: File) -> Items {
-        let options = LinearReaderOptions::default()
-            .with_emit_chunks(true)
-            .with_validate_data_section_crc(true)
-            .with_record_length_limit(RECORD_LENGTH_LIMIT);
-        Items {
-            path: path.to_path_buf(),
-            input,
-            reader: LinearReader::new_with_options(options),
-            bytes_read: 0,
-            pending: VecDeque::new(),
-        }
-    }
-
-    fn corrupt(&self, detail: String) -> SessionError {
-        SessionError::Corrupt { path: self.path.clone(), bytes_read: self.bytes_read, detail }
-    }
-
-    /// The next record to copy; `Ok(None)` at the end of the data.
-    fn next_item(&mut self) -> Result<Option<Item>, SessionError> {
-        loop {
-            if let Some(item) = self.pending.pop_front() {
-                return Ok(Some(item));
-            }
-            let (opcode, data) = match self.reader.next_event() {
-                None => return Ok(None),
-                Some(Err(e)) => return Err(self.corrupt(e.to_string())),
-                Some(Ok(LinearReadEvent::ReadRequest(need))) => {
-                    let buf = self.reader.insert(need.clamp(1, READ_BLOCK));
-                    let n = read_full(&mut self.input, buf);
-                    let n = match n {
-                        Ok(n) => n,
-                        Err(source) => {
-                            self.reader.notify_read(0);
-                            return Err(SessionError::Read { path: self.path.clone(), source });
-                        }
-                    };
-                    self.reader.notify_read(n);
-                    self.bytes_read += n as u64;
-                    continue;
-                }
-                Some(Ok(LinearReadEvent::Record { opcode, data })) => (opcode, data.to_vec()),
-            };
-            match opcode {
-                op::CHUNK => self.open_chunk(&data)?,
-                op::DATA_END => return Ok(None),
-                _ => {
-                    if let Some(item) = self.parse(opcode, &data)? {
-                        self.pending.push_back(item);
-                    }
-                }
-            }
-        }
-    }
-
-    /// Decompresses a chunk (checking its CRC first) and queues its records.
-    fn open_chunk(&mut self, data: &[u8]) -> Result<(), SessionError> {
-        let mut inner = chunk_reader(data);
-        let mut queued = VecDeque::new();
-        let mut eof_sent = false;
-        while let Some(event) = inner.next_event() {
-            match event {
-                Ok(LinearReadEvent::ReadRequest(_)) if !eof_sent => {
-                    inner.notify_read(0);
-                    eof_sent = true;
-                }
-                Ok(LinearReadEvent::ReadRequest(_)) => return Err(self.corrupt("chunk ends early".into())),
-                Ok(LinearReadEvent::Record { opcode, data }) => {
-                    if let Some(item) = self.parse(opcode, data)? {
-                        queued.push_back(item);
-                    }
-                }
-                Err(e) => return Err(self.corrupt(format!("bad chunk: {e}"))),
-            }
-        }
-        self.pending.extend(queued);
-        Ok(())
-    }
-
-    /// The records that are copied; indexes, statistics and the summary are
-    /// rebuilt by the writer.
-    fn parse(&self, opcode: u8, data: &[u8]) -> Result<Option<Item>, SessionError> {
-        let bad = |e: &dyn std::fmt::Display| self.corrupt(format!("bad record {opcode:#04x}: {e}"));
-        if opcode == op::ATTACHMENT {
-            return parse_attachment(data)
-                .map(|a| Some(Item::Attachment(a)))
-                .ok_or_else(|| bad(&"attachment"));
-        }
-        if !matches!(opcode, op::HEADER | op::SCHEMA | op::CHANNEL | op::MESSAGE | op::METADATA) {
-            return Ok(None);
-        }
-        Ok(match mcap::parse_record(opcode, data).map_err(|e| bad(&e))? {
-            Record::Header(h) => Some(Item::Header(h)),
-            Record::Schema { header, data } => Some(Item::Schema {
-                id: header.id,
-                name: header.name,
-                encoding: header.encoding,
-                data: data.into_owned(),
-            }),
-            Record::Channel(c) => Some(Item::Channel(c)),
-            Record::Message { header, data } => Some(Item::Message { header, data: data.into_owned() }),
-            Record::Metadata(m) => Some(Item::Metadata(m)),
-            _ => None,
-        })
-    }
-}
-
-/// An attachment record, parsed by hand (the `mcap` parser can panic on a
-/// malformed one): times, name, media type, data; the CRC is recomputed on write.
-fn parse_attachment(body: &[u8]) -> Option<mcap::Attachment<'static>> {
-    fn string(buf: &[u8]) -> Option<(String, &[u8])> {
-        let (len, rest) = buf.split_first_chunk::<4>()?;
-        let len = u32::from_le_bytes(*len) as usize;
-        let s = std::str::from_utf8(rest.get(..len)?).ok()?;
-        Some((s.to_string(), rest.get(len..)?))
-    }
-    let (log_time, rest) = body.split_first_chunk::<8>()?;
-    let (create_time, rest) = rest.split_first_chunk::<8>()?;
-    let (name, rest) = string(rest)?;
-    let (media_type, rest) = string(rest)?;
-    let (len, rest) = rest.split_first_chunk::<8>()?;
-    let len = usize::try_from(u64::from_le_bytes(*len)).ok()?;
-    let data = rest.get(..len)?;
-    (rest.len() == len.checked_add(4)?).then(|| mcap::Attachment {
-        log_time: u64::from_le_bytes(*log_time),
-        create_time: u64::from_le_bytes(*create_time),
-        name,
-        media_type,
-        data: Cow::Owned(data.to_vec()),
-    })
 }
 
 #[cfg(test)]

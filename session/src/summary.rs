@@ -1,22 +1,21 @@
 //! What a session file holds, from its summary section when it has one, else
 //! from a scan of the whole file.
 
+mod indexed;
+
 use std::collections::{BTreeMap, HashMap};
-use std::fs::File;
-use std::io::{Seek, SeekFrom};
+use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use mcap::records::{ChunkIndex, Record, op};
 use slidetrack_core::TimeNs;
 
-use super::error::SessionError;
+use super::error::{SessionError, error_chain};
 use super::metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
-use super::reader::{ChannelDesc, ReadOptions};
-use super::scan::{
-    Event, FOOTER_AND_MAGIC, RECORD_LENGTH_LIMIT, Scanner, corrupt, footer_summary_start, open_session,
-    raw_records, read_full,
-};
+use super::reader::ReadOptions;
+use super::records::StreamError;
+use super::scan::{Event, Scanner, check_session, footer_summary_start, open_session};
+use super::stored::{AttachmentSummary, ChannelDesc};
 
 /// One channel of a session.
 #[derive(Clone, Debug, PartialEq)]
@@ -38,17 +37,6 @@ pub struct ChannelSummary {
     /// `(count - 1) / (last - first)` (Hz), `None` with fewer than two
     /// messages or no time between them.
     pub mean_rate_hz: Option<f64>,
-}
-
-/// An attachment of a session.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct AttachmentSummary {
-    /// Its name (a file name).
-    pub name: String,
-    /// Its media type (`application/toml`).
-    pub media_type: String,
-    /// Its size (bytes).
-    pub size_bytes: u64,
 }
 
 /// What a session file holds.
@@ -88,19 +76,21 @@ impl SessionInfo {
     /// complete chunks and has `truncated` set.
     pub fn read(path: impl AsRef<Path>, options: ReadOptions) -> Result<SessionInfo, SessionError> {
         let path = path.as_ref();
-        let (mut file, size) = open_session(path)?;
-        let read_err = |source| SessionError::Read { path: path.to_path_buf(), source };
-        let summary_start = footer_summary_start(&mut file, size).map_err(read_err)?;
-        if let Some(start) = summary_start.filter(|&s| s != 0) {
-            match from_summary(path, &mut file, size, start) {
-                Ok(Some(info)) => return Ok(info),
-                Ok(None) => {}
-                Err(e) if !options.recover => return Err(e),
-                Err(e) => tracing::debug!("{e}; scanning the file instead"),
-            }
-            file.seek(SeekFrom::Start(0)).map_err(read_err)?;
-        }
-        scan_info(path, file, size, summary_start.is_some(), options)
+        let (file, size) = open_session(path)?;
+        read_info(path, file, size, options)
+    }
+
+    /// [`SessionInfo::read`] of the session held by `input` (from its start,
+    /// for example a `Cursor` over the bytes of a file); `name` stands for the
+    /// file in errors and in [`SessionInfo::path`].
+    pub fn from_reader(
+        name: impl AsRef<Path>,
+        mut input: impl Read + Seek,
+        options: ReadOptions,
+    ) -> Result<SessionInfo, SessionError> {
+        let name = name.as_ref();
+        let size = check_session(name, &mut input)?;
+        read_info(name, input, size, options)
     }
 
     /// The channel on `topic`.
@@ -153,50 +143,80 @@ fn channel_summary(desc: &ChannelDesc, tally: Option<&ChannelTally>) -> ChannelS
     }
 }
 
-#[expect(clippy::too_many_arguments, reason = "the parts of a summary, each read from its own record")]
-fn assemble(
-    path: &Path,
-    file_size_bytes: u64,
-    channels: &[ChannelDesc],
-    tallies: &HashMap<u16, ChannelTally>,
+/// What a [`SessionInfo`] is made of, read from the summary section or by a scan.
+struct Parts {
+    /// Channels, by id.
+    channels: Vec<ChannelDesc>,
+    /// Counts and times per channel id.
+    tallies: HashMap<u16, ChannelTally>,
+    /// Metadata records by name.
     metadata: BTreeMap<String, BTreeMap<String, String>>,
+    /// Attachments, in file order.
     attachments: Vec<AttachmentSummary>,
+    /// Complete chunks.
     chunk_count: u64,
-    truncated: bool,
-) -> SessionInfo {
-    let channels: Vec<ChannelSummary> =
-        channels.iter().map(|c| channel_summary(c, tallies.get(&c.id))).collect();
-    let start = channels.iter().filter_map(|c| c.first_log_time).min();
-    let end = channels.iter().filter_map(|c| c.last_log_time).max();
-    let duration = match (start, end) {
-        (Some(s), Some(e)) => e - s,
-        _ => Duration::ZERO,
-    };
-    SessionInfo {
-        path: path.to_path_buf(),
-        file_size_bytes,
-        message_count: channels.iter().map(|c| c.message_count).sum(),
-        channels,
-        start,
-        end,
-        duration,
-        metadata,
-        attachments,
-        chunk_count,
-        truncated,
+}
+
+impl Parts {
+    fn assemble(self, path: &Path, file_size_bytes: u64, truncated: bool) -> SessionInfo {
+        let tallies = &self.tallies;
+        let channels: Vec<ChannelSummary> =
+            self.channels.iter().map(|c| channel_summary(c, tallies.get(&c.id))).collect();
+        let start = channels.iter().filter_map(|c| c.first_log_time).min();
+        let end = channels.iter().filter_map(|c| c.last_log_time).max();
+        let duration = match (start, end) {
+            (Some(s), Some(e)) => e - s,
+            _ => Duration::ZERO,
+        };
+        SessionInfo {
+            path: path.to_path_buf(),
+            file_size_bytes,
+            message_count: channels.iter().map(|c| c.message_count).sum(),
+            channels,
+            start,
+            end,
+            duration,
+            metadata: self.metadata,
+            attachments: self.attachments,
+            chunk_count: self.chunk_count,
+            truncated,
+        }
     }
+}
+
+/// Reads what the session in `input` (of `size` bytes) holds: from its
+/// summary section when there is one and it has what is needed, else by
+/// scanning the file.
+fn read_info<R: Read + Seek>(
+    path: &Path,
+    mut input: R,
+    size: u64,
+    options: ReadOptions,
+) -> Result<SessionInfo, SessionError> {
+    let read_err = |source| SessionError::Read { path: path.to_path_buf(), source };
+    let summary_start = footer_summary_start(&mut input, size).map_err(read_err)?;
+    if let Some(start) = summary_start.filter(|&s| s != 0) {
+        match indexed::from_summary(path, &mut input, size, start) {
+            Ok(Some(info)) => return Ok(info),
+            Ok(None) => {}
+            Err(e) if !options.recover => return Err(e),
+            Err(e) => tracing::debug!("{}; scanning the file instead", error_chain(&e)),
+        }
+        input.seek(SeekFrom::Start(0)).map_err(read_err)?;
+    }
+    scan_info(path, input, size, summary_start.is_some(), options)
 }
 
 /// Scans the whole file. `has_footer` tells a truncated file (no footer) from
 /// a corrupt one.
-pub(crate) fn scan_info(
+pub(crate) fn scan_info<R: Read>(
     path: &Path,
-    file: File,
+    input: R,
     size: u64,
     has_footer: bool,
     options: ReadOptions,
 ) -> Result<SessionInfo, SessionError> {
-    let mut scan = Scanner::new(path, file, None, false);
+    let mut scan = Scanner::new(path, input, None, false);
     let mut tallies: HashMap<u16, ChannelTally> = HashMap::new();
     let mut metadata = BTreeMap::new();
     let mut attachments = Vec::new();
@@ -209,16 +229,16 @@ pub(crate) fn scan_info(
             }
             Ok(Some(Event::Attachment(a))) => attachments.push(a),
             Ok(None) => break,
-            Err(e) if !options.recover && has_footer => return Err(corrupt(path, e)),
-            Err(e) if !options.recover => {
-                return Err(match e.io {
-                    Some(source) => SessionError::Read { path: path.to_path_buf(), source },
-                    None => SessionError::Truncated {
-                        path: path.to_path_buf(),
-                        readable_messages: scan.messages,
-                        complete_chunks: scan.complete_chunks,
-                        readable_until: scan.last_log_time,
-                    },
+            Err(e) if !options.recover && has_footer => return Err(e.into_session_error(path)),
+            Err(StreamError::Io(source)) if !options.recover => {
+                return Err(SessionError::Read { path: path.to_path_buf(), source });
+            }
+            Err(StreamError::Corrupt { .. }) if !options.recover => {
+                return Err(SessionError::Truncated {
+                    path: path.to_path_buf(),
+                    readable_messages: scan.messages,
+                    complete_chunks: scan.complete_chunks(),
+                    readable_until: scan.last_log_time,
                 });
             }
             Err(_) => {
@@ -228,120 +248,9 @@ pub(crate) fn scan_info(
         }
     }
     let channels: Vec<ChannelDesc> = scan.channels.values().map(|c| c.as_ref().clone()).collect();
-    let chunks = scan.complete_chunks;
-    Ok(assemble(path, size, &channels, &tallies, metadata, attachments, chunks, truncated))
+    let parts = Parts { channels, tallies, metadata, attachments, chunk_count: scan.complete_chunks() };
+    Ok(parts.assemble(path, size, truncated))
 }
 
-/// Reads `len` bytes at `offset`, refusing lengths beyond the record limit or the file.
-fn read_at(file: &mut File, size: u64, offset: u64, len: u64) -> Option<Vec<u8>> {
-    if len > RECORD_LENGTH_LIMIT as u64 || offset.checked_add(len)? > size {
-        return None;
-    }
-    let mut buf = vec![0u8; len as usize];
-    file.seek(SeekFrom::Start(offset)).ok()?;
-    (read_full(file, &mut buf).ok()? == buf.len()).then_some(buf)
-}
-
-/// The info from the summary section, `Ok(None)` when the summary lacks what
-/// is needed (statistics, message indexes) and the file must be scanned.
-fn from_summary(
-    path: &Path,
-    file: &mut File,
-    size: u64,
-    summary_start: u64,
-) -> Result<Option<SessionInfo>, SessionError> {
-    let corrupt = |detail: &str| SessionError::Corrupt {
-        path: path.to_path_buf(),
-        bytes_read: summary_start,
-        detail: format!("bad summary section: {detail}"),
-    };
-    let footer_start = size - FOOTER_AND_MAGIC;
-    let len = footer_start.checked_sub(summary_start).ok_or_else(|| corrupt("starts after the footer"))?;
-    let summary = read_at(file, size, summary_start, len).ok_or_else(|| corrupt("unreadable"))?;
-
-    let mut schemas: HashMap<u16, (String, String)> = HashMap::new();
-    let mut channels: Vec<ChannelDesc> = Vec::new();
-    let mut stats = None;
-    let mut chunk_indexes: Vec<ChunkIndex> = Vec::new();
-    let mut metadata_indexes = Vec::new();
-    let mut attachments = Vec::new();
-    for record in raw_records(&summary) {
-        let (opcode, body) = record.map_err(|()| corrupt("a record runs past its end"))?;
-        let parsed = match opcode {
-            op::SCHEMA
-            | op::CHANNEL
-            | op::STATISTICS
-            | op::CHUNK_INDEX
-            | op::ATTACHMENT_INDEX
-            | op::METADATA_INDEX => mcap::parse_record(opcode, body).map_err(|e| corrupt(&e.to_string()))?,
-            _ => continue,
-        };
-        match parsed {
-            Record::Schema { header, .. } => {
-                schemas.insert(header.id, (header.name, header.encoding));
-            }
-            Record::Channel(c) => {
-                let (schema_name, schema_encoding) = schemas.get(&c.schema_id).cloned().unwrap_or_default();
-                channels.push(ChannelDesc {
-                    id: c.id,
-                    topic: c.topic,
-                    schema_name,
-                    schema_encoding,
-                    message_encoding: c.message_encoding,
-                    metadata: c.metadata,
-                });
-            }
-            Record::Statistics(s) => stats = Some(s),
-            Record::ChunkIndex(c) => chunk_indexes.push(c),
-            Record::AttachmentIndex(a) => attachments.push(super::AttachmentSummary {
-                name: a.name,
-                media_type: a.media_type,
-                size_bytes: a.data_size,
-            }),
-            Record::MetadataIndex(m) => metadata_indexes.push(m),
-            _ => {}
-        }
-    }
-    let Some(stats) = stats else { return Ok(None) };
-    channels.sort_by_key(|c| c.id);
-
-    // Per-channel first and last log times, from the message indexes after each chunk.
-    let mut tallies: HashMap<u16, ChannelTally> = HashMap::new();
-    for chunk in &chunk_indexes {
-        if chunk.message_index_offsets.is_empty() && chunk.message_index_length == 0 {
-            return Ok(None);
-        }
-        let offset = chunk.chunk_start_offset.checked_add(chunk.chunk_length);
-        let indexes = offset.and_then(|o| read_at(file, size, o, chunk.message_index_length));
-        let indexes = indexes.ok_or_else(|| corrupt("unreadable message index"))?;
-        for record in raw_records(&indexes) {
-            let (opcode, body) = record.map_err(|()| corrupt("bad message index"))?;
-            if opcode != op::MESSAGE_INDEX {
-                continue;
-            }
-            if let Ok(Record::MessageIndex(index)) = mcap::parse_record(opcode, body) {
-                let tally = tallies.entry(index.channel_id).or_default();
-                index.records.iter().for_each(|e| tally.add(TimeNs(e.log_time)));
-            }
-        }
-    }
-    let indexed: u64 = tallies.values().map(|t| t.count).sum();
-    if indexed != stats.message_count {
-        return Ok(None);
-    }
-
-    let mut metadata = BTreeMap::new();
-    for index in &metadata_indexes {
-        let record =
-            read_at(file, size, index.offset, index.length).ok_or_else(|| corrupt("unreadable metadata"))?;
-        let parsed = raw_records(&record).next().and_then(Result::ok);
-        match parsed.map(|(opcode, body)| (opcode, mcap::parse_record(opcode, body))) {
-            Some((op::METADATA, Ok(Record::Metadata(m)))) => {
-                metadata.insert(m.name, m.metadata);
-            }
-            _ => return Err(corrupt("a metadata index points at no metadata record")),
-        }
-    }
-    let chunks = u64::from(stats.chunk_count);
-    Ok(Some(assemble(path, size, &channels, &tallies, metadata, attachments, chunks, false)))
-}
+#[cfg(test)]
+mod tests;

@@ -4,11 +4,11 @@
 use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use serde_json::{Value, json};
+use serde_json::Value;
 use slidetrack_core::{CameraIntrinsics, EncodedImage, TimeNs};
 
-use super::messages::ChannelMessage;
-use super::schema::{self, array, boolean, foxglove_time, nullable, number, uint};
+use super::channel::ChannelMessage;
+use super::schema::{Foxglove, derived};
 
 /// Foxglove's `time`: seconds and nanoseconds, here on the session clock.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -71,29 +71,7 @@ impl ChannelMessage for CompressedImage {
     const TOPIC: &'static str = "/camera/image";
     const SCHEMA_NAME: &'static str = "foxglove.CompressedImage";
     fn json_schema() -> Value {
-        json!({
-            "title": Self::SCHEMA_NAME,
-            "description": "A compressed image",
-            "type": "object",
-            "properties": {
-                "timestamp": foxglove_time("Timestamp of image"),
-                "frame_id": {
-                    "type": "string",
-                    "description": "Frame of reference for the image. The origin of the frame is \
-                        the optical center of the camera. +x points to the right in the image, \
-                        +y points down, and +z points into the plane of the image.",
-                },
-                "data": {
-                    "type": "string",
-                    "contentEncoding": "base64",
-                    "description": "Compressed image data",
-                },
-                "format": {
-                    "type": "string",
-                    "description": "Image format\n\nSupported values: `jpeg`, `png`, `webp`, `avif`",
-                },
-            },
-        })
+        Foxglove::CompressedImage.schema()
     }
 }
 
@@ -174,38 +152,12 @@ impl ChannelMessage for CameraCalibration {
     const TOPIC: &'static str = "/camera/calibration";
     const SCHEMA_NAME: &'static str = "foxglove.CameraCalibration";
     fn json_schema() -> Value {
-        let numbers = |description: &str, len: Option<usize>| {
-            let mut v = json!({ "type": "array", "items": { "type": "number" }, "description": description });
-            if let (Some(len), Value::Object(m)) = (len, &mut v) {
-                m.insert("minItems".into(), json!(len));
-                m.insert("maxItems".into(), json!(len));
-            }
-            v
-        };
-        json!({
-            "title": Self::SCHEMA_NAME,
-            "description": "Camera calibration parameters",
-            "type": "object",
-            "properties": {
-                "timestamp": foxglove_time("Timestamp of calibration data"),
-                "frame_id": { "type": "string", "description": "Frame of reference for the camera" },
-                "width": { "type": "integer", "minimum": 0, "description": "Image width" },
-                "height": { "type": "integer", "minimum": 0, "description": "Image height" },
-                "distortion_model": {
-                    "type": "string",
-                    "description": "Name of distortion model: `plumb_bob` (k1, k2, p1, p2, k3)",
-                },
-                "D": numbers("Distortion parameters", None),
-                "K": numbers("Intrinsic camera matrix (3x3 row-major matrix)", Some(9)),
-                "R": numbers("Rectification matrix (3x3 row-major matrix)", Some(9)),
-                "P": numbers("Projection/camera matrix (3x4 row-major matrix)", Some(12)),
-            },
-        })
+        Foxglove::CameraCalibration.schema()
     }
 }
 
 /// A rotation as a unit quaternion.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Quaternion {
     /// Vector part, x.
     pub x: f64,
@@ -219,7 +171,7 @@ pub struct Quaternion {
 
 /// `/aruco/detections`: the marker on the object in one camera frame. A missed
 /// detection is a message with `detected: false` and every other field `null`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ArucoDetection {
     /// True when the marker was found.
     pub detected: bool,
@@ -249,26 +201,6 @@ impl ChannelMessage for ArucoDetection {
     const TOPIC: &'static str = "/aruco/detections";
     const SCHEMA_NAME: &'static str = "slidetrack.ArucoDetection";
     fn json_schema() -> Value {
-        let corner = array("[u, v] (px)", number("pixel coordinate (px)"), 2);
-        let quaternion = schema::quaternion("camera_from_marker rotation, unit quaternion");
-        schema::message(
-            Self::SCHEMA_NAME,
-            "The object's marker in one camera frame; null fields when not detected",
-            vec![
-                ("detected", boolean("the marker was found")),
-                ("marker_id", nullable(uint("marker dictionary id", u32::MAX.into()))),
-                (
-                    "corners_px",
-                    nullable(array("corners in the distorted image, ArUco order (px)", corner, 4)),
-                ),
-                (
-                    "position_in_camera_m",
-                    nullable(array("marker centre in the camera frame (m)", number("(m)"), 3)),
-                ),
-                ("orientation_in_camera", nullable(quaternion)),
-                ("position_on_axis_m", nullable(number("marker centre on the sliding axis (m)"))),
-                ("reprojection_error_px", nullable(number("RMS corner reprojection error (px)"))),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }

@@ -11,11 +11,11 @@ use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use nalgebra::{Isometry3, Quaternion as NaQuaternion, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use serde_json::{Value, json};
+use serde_json::Value;
 use slidetrack_core::{DepthImage, ObjectTruth as SimObjectTruth, TimeNs};
 
-use super::messages::ChannelMessage;
-use super::schema::{self, array, foxglove_time, number};
+use super::channel::{ChannelMessage, ChannelSpec};
+use super::schema::{Foxglove, derived};
 use super::vision::{CameraCalibration, CompressedImage, FoxgloveTime, Quaternion};
 
 fn to_base64<S: Serializer>(bytes: &[u8], s: S) -> Result<S::Ok, S::Error> {
@@ -91,33 +91,6 @@ impl RawImage {
         (self.encoding == "mono8" && self.step == self.width && self.data.len() == n)
             .then(|| self.data.clone())
     }
-
-    fn foxglove_schema(description: &str) -> Value {
-        json!({
-            "title": "foxglove.RawImage",
-            "description": description,
-            "type": "object",
-            "properties": {
-                "timestamp": foxglove_time("Timestamp of image"),
-                "frame_id": {
-                    "type": "string",
-                    "description": "Frame of reference for the image. The origin of the frame is the optical \
-                        center of the camera. +x points to the right in the image, +y points down, and +z \
-                        points into the plane of the image.",
-                },
-                "width": { "type": "integer", "minimum": 0, "description": "Image width" },
-                "height": { "type": "integer", "minimum": 0, "description": "Image height" },
-                "encoding": {
-                    "type": "string",
-                    "description": "Encoding of the raw image data\n\nSupported values: `8UC1`, `8UC3`, \
-                        `16UC1`, `32FC1`, `bayer_bggr8`, `bayer_gbrg8`, `bayer_grbg8`, `bayer_rggb8`, `bgr8`, \
-                        `bgra8`, `mono8`, `mono16`, `rgb8`, `rgba8`, `uyvy` or `yuv422`, `yuyv` or `yuv422_yuy2`",
-                },
-                "step": { "type": "integer", "minimum": 0, "description": "Byte length of a single row" },
-                "data": { "type": "string", "contentEncoding": "base64", "description": "Raw image data" },
-            },
-        })
-    }
 }
 
 /// A pose in a frame (`foxglove.PoseInFrame`).
@@ -191,58 +164,6 @@ impl PoseInFrame {
             pose: Pose::from_isometry(camera_from_object),
         }
     }
-
-    fn foxglove_schema() -> Value {
-        json!({
-            "title": "foxglove.PoseInFrame",
-            "description": "A timestamped pose for an object or reference frame in 3D space",
-            "type": "object",
-            "properties": {
-                "timestamp": foxglove_time("Timestamp of pose"),
-                "frame_id": { "type": "string", "description": "Frame of reference for pose position and orientation" },
-                "pose": pose_schema("Pose in 3D space"),
-            },
-        })
-    }
-}
-
-fn vector3_schema(description: &str) -> Value {
-    json!({
-        "title": "foxglove.Vector3",
-        "description": description,
-        "type": "object",
-        "properties": {
-            "x": { "type": "number", "description": "x coordinate length" },
-            "y": { "type": "number", "description": "y coordinate length" },
-            "z": { "type": "number", "description": "z coordinate length" },
-        },
-    })
-}
-
-fn quaternion_schema(description: &str) -> Value {
-    json!({
-        "title": "foxglove.Quaternion",
-        "description": description,
-        "type": "object",
-        "properties": {
-            "x": { "type": "number", "description": "x value" },
-            "y": { "type": "number", "description": "y value" },
-            "z": { "type": "number", "description": "z value" },
-            "w": { "type": "number", "description": "w value" },
-        },
-    })
-}
-
-fn pose_schema(description: &str) -> Value {
-    json!({
-        "title": "foxglove.Pose",
-        "description": description,
-        "type": "object",
-        "properties": {
-            "position": vector3_schema("Point denoting position in 3D space"),
-            "orientation": quaternion_schema("Quaternion denoting orientation in 3D space"),
-        },
-    })
 }
 
 /// A transform between two frames (`foxglove.FrameTransform`).
@@ -271,26 +192,11 @@ impl FrameTransform {
             rotation: (&parent_from_child.rotation).into(),
         }
     }
-
-    fn foxglove_schema() -> Value {
-        json!({
-            "title": "foxglove.FrameTransform",
-            "description": "A transform between two reference frames in 3D space",
-            "type": "object",
-            "properties": {
-                "timestamp": foxglove_time("Timestamp of transform"),
-                "parent_frame_id": { "type": "string", "description": "Name of the parent frame" },
-                "child_frame_id": { "type": "string", "description": "Name of the child frame" },
-                "translation": vector3_schema("Translation component of the transform"),
-                "rotation": quaternion_schema("Rotation component of the transform"),
-            },
-        })
-    }
 }
 
 /// The velocity estimated by a tracker: mixed velocity `(ṗ, ω)` of the
 /// object in the camera frame.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct VelocityEstimate {
     /// The frame the velocities are expressed in (`camera`).
     pub frame_id: String,
@@ -300,20 +206,8 @@ pub struct VelocityEstimate {
     pub angular_velocity_radps: [f64; 3],
 }
 
-fn velocity_schema(name: &str) -> Value {
-    schema::message(
-        name,
-        "Mixed velocity of the tracked object in the camera frame",
-        vec![
-            ("frame_id", schema::string("frame of the velocities (camera)")),
-            ("linear_velocity_mps", array("velocity of the object origin (m/s)", number("(m/s)"), 3)),
-            ("angular_velocity_radps", array("angular velocity (rad/s)", number("(rad/s)"), 3)),
-        ],
-    )
-}
-
 /// `/sim/object`: the simulator's truth about the object seen by the RGB-D camera.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct ObjectTruth {
     /// Position of the object frame in the camera frame (m).
     pub position_m: [f64; 3],
@@ -357,17 +251,7 @@ impl ChannelMessage for ObjectTruth {
     const TOPIC: &'static str = "/sim/object";
     const SCHEMA_NAME: &'static str = "slidetrack.ObjectTruth";
     fn json_schema() -> Value {
-        let quaternion = schema::quaternion("camera_from_object rotation, unit quaternion");
-        schema::message(
-            Self::SCHEMA_NAME,
-            "The simulator's object pose and velocity in the camera frame",
-            vec![
-                ("position_m", array("object origin in the camera frame (m)", number("(m)"), 3)),
-                ("orientation", quaternion),
-                ("linear_velocity_mps", array("velocity of the object origin (m/s)", number("(m/s)"), 3)),
-                ("angular_velocity_radps", array("angular velocity (rad/s)", number("(rad/s)"), 3)),
-            ],
-        )
+        derived::<Self>(Self::SCHEMA_NAME)
     }
 }
 
@@ -391,63 +275,62 @@ macro_rules! channel {
 
 channel!(
     /// `/rgbd/color`: colour frames of the RGB-D camera (JPEG).
-    RgbdColor(CompressedImage), "/rgbd/color", "foxglove.CompressedImage", CompressedImage::json_schema()
+    RgbdColor(CompressedImage), "/rgbd/color", "foxglove.CompressedImage", Foxglove::CompressedImage.schema()
 );
 channel!(
     /// `/rgbd/depth`: depth frames, `16UC1` millimetres, registered to the colour.
-    RgbdDepth(RawImage), "/rgbd/depth", "foxglove.RawImage", RawImage::foxglove_schema("Depth image, 16UC1 mm")
+    RgbdDepth(RawImage), "/rgbd/depth", "foxglove.RawImage", Foxglove::RawImage.schema()
 );
 channel!(
     /// `/rgbd/calibration`: the RGB-D camera's intrinsics (no distortion).
     RgbdCalibration(CameraCalibration), "/rgbd/calibration", "foxglove.CameraCalibration",
-    CameraCalibration::json_schema()
+    Foxglove::CameraCalibration.schema()
 );
 channel!(
     /// `/rgbd/mask`: the simulator's ground-truth segmentation, `mono8`.
-    RgbdMask(RawImage), "/rgbd/mask", "foxglove.RawImage", RawImage::foxglove_schema("Ground-truth mask, mono8")
+    RgbdMask(RawImage), "/rgbd/mask", "foxglove.RawImage", Foxglove::RawImage.schema()
 );
 channel!(
     /// `/vision/mask`: a mask from the segmentation source; `timestamp` is the
     /// frame it was computed on, `log_time` when it arrived.
-    VisionMask(RawImage), "/vision/mask", "foxglove.RawImage", RawImage::foxglove_schema("Object mask, mono8")
+    VisionMask(RawImage), "/vision/mask", "foxglove.RawImage", Foxglove::RawImage.schema()
 );
 channel!(
     /// `/vision/pose`: a pose from the pose-estimation source; `timestamp` is
     /// the frame it was computed on, `log_time` when it arrived.
-    VisionPose(PoseInFrame), "/vision/pose", "foxglove.PoseInFrame", PoseInFrame::foxglove_schema()
+    VisionPose(PoseInFrame), "/vision/pose", "foxglove.PoseInFrame", Foxglove::PoseInFrame.schema()
 );
 channel!(
     /// `/estimate/pose/maskukf`: MaskUKF's `camera_from_object`.
-    MaskUkfPose(PoseInFrame), "/estimate/pose/maskukf", "foxglove.PoseInFrame", PoseInFrame::foxglove_schema()
+    MaskUkfPose(PoseInFrame), "/estimate/pose/maskukf", "foxglove.PoseInFrame", Foxglove::PoseInFrame.schema()
 );
 channel!(
     /// `/estimate/pose/roft`: ROFT's `camera_from_object`.
-    RoftPose(PoseInFrame), "/estimate/pose/roft", "foxglove.PoseInFrame", PoseInFrame::foxglove_schema()
+    RoftPose(PoseInFrame), "/estimate/pose/roft", "foxglove.PoseInFrame", Foxglove::PoseInFrame.schema()
 );
 channel!(
     /// `/estimate/transform/maskukf`: MaskUKF's object frame for the 3D panel.
     MaskUkfTransform(FrameTransform), "/estimate/transform/maskukf", "foxglove.FrameTransform",
-    FrameTransform::foxglove_schema()
+    Foxglove::FrameTransform.schema()
 );
 channel!(
     /// `/estimate/transform/roft`: ROFT's object frame for the 3D panel.
     RoftTransform(FrameTransform), "/estimate/transform/roft", "foxglove.FrameTransform",
-    FrameTransform::foxglove_schema()
+    Foxglove::FrameTransform.schema()
 );
 channel!(
     /// `/estimate/velocity/maskukf`: MaskUKF's velocity.
     MaskUkfVelocity(VelocityEstimate), "/estimate/velocity/maskukf", "slidetrack.VelocityEstimate",
-    velocity_schema("slidetrack.VelocityEstimate")
+    derived::<VelocityEstimate>("slidetrack.VelocityEstimate")
 );
 channel!(
     /// `/estimate/velocity/roft`: ROFT's velocity.
     RoftVelocity(VelocityEstimate), "/estimate/velocity/roft", "slidetrack.VelocityEstimate",
-    velocity_schema("slidetrack.VelocityEstimate")
+    derived::<VelocityEstimate>("slidetrack.VelocityEstimate")
 );
 
 /// The channel specs of this module, in the order of `docs/session-format.md`.
-pub fn vision_channel_specs() -> Vec<super::messages::ChannelSpec> {
-    use super::messages::ChannelSpec;
+pub fn vision_channel_specs() -> Vec<ChannelSpec> {
     vec![
         ChannelSpec::of::<RgbdColor>(),
         ChannelSpec::of::<RgbdDepth>(),

@@ -1,20 +1,20 @@
 //! The producers' side of recording: the [`Logger`] handle, the channel
 //! registry and the state shared with the writer thread.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::marker::PhantomData;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use crossbeam_channel::{Sender, TrySendError};
 use serde::Serialize;
 use slidetrack_core::TimeNs;
 
+use super::channel::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
 use super::error::SessionError;
-use super::messages::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
-use super::writer_thread::Command;
+use super::shared::{ChannelRegistration, Command, Shared, lock};
 
 /// Tuning of a [`Recorder`](super::Recorder). The defaults suit a 1 kHz tactile stream plus a
 /// 30 fps camera.
@@ -118,96 +118,6 @@ impl<T> PartialEq for ChannelHandle<T> {
 }
 
 impl<T> Eq for ChannelHandle<T> {}
-
-/// Everything that defines a channel.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) struct ChannelRegistration {
-    pub(crate) topic: String,
-    pub(crate) schema_name: String,
-    pub(crate) schema_encoding: String,
-    pub(crate) schema_data: Vec<u8>,
-    pub(crate) message_encoding: String,
-    pub(crate) metadata: BTreeMap<String, String>,
-}
-
-/// State shared by the producers and the writer thread.
-pub(crate) struct Shared {
-    pub(crate) path: PathBuf,
-    failed: AtomicBool,
-    failure: Mutex<Option<(Option<std::io::ErrorKind>, String)>>,
-    pub(crate) images_dropped: AtomicU64,
-    pub(crate) lossy_bytes_queued: AtomicUsize,
-    lossy_limit: usize,
-    registry: Mutex<Registry>,
-}
-
-#[derive(Default)]
-pub(crate) struct Registry {
-    next_id: u32,
-    by_topic: HashMap<String, (u16, ChannelRegistration)>,
-}
-
-pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-impl Shared {
-    pub(crate) fn new(path: PathBuf, lossy_limit: usize) -> Shared {
-        Shared {
-            path,
-            failed: AtomicBool::new(false),
-            failure: Mutex::new(None),
-            images_dropped: AtomicU64::new(0),
-            lossy_bytes_queued: AtomicUsize::new(0),
-            lossy_limit,
-            registry: Mutex::new(Registry::default()),
-        }
-    }
-
-    /// Records the first write failure; later calls report it.
-    pub(crate) fn fail(&self, kind: Option<std::io::ErrorKind>, detail: String) {
-        let mut f = lock(&self.failure);
-        if f.is_none() {
-            *f = Some((kind, detail));
-        }
-        self.failed.store(true, Ordering::Release);
-    }
-
-    /// The recorded failure, as an error.
-    pub(crate) fn failure(&self) -> Option<SessionError> {
-        if !self.failed.load(Ordering::Acquire) {
-            return None;
-        }
-        let (kind, detail) = lock(&self.failure).clone()?;
-        Some(SessionError::Write { path: self.path.clone(), kind, detail })
-    }
-
-    fn check(&self) -> Result<(), SessionError> {
-        self.failure().map_or(Ok(()), Err)
-    }
-
-    pub(crate) fn closed(&self) -> SessionError {
-        self.failure().unwrap_or_else(|| SessionError::Closed {
-            path: self.path.clone(),
-            detail: "its writer thread has exited".into(),
-        })
-    }
-
-    /// Reserves the next channel id (1, 2, ...).
-    pub(crate) fn next_channel_id(&self, topic: &str) -> Result<u16, SessionError> {
-        let mut reg = lock(&self.registry);
-        self.alloc_id(&mut reg, topic)
-    }
-
-    fn alloc_id(&self, reg: &mut Registry, topic: &str) -> Result<u16, SessionError> {
-        reg.next_id += 1;
-        u16::try_from(reg.next_id).map_err(|_| SessionError::Channel {
-            path: self.path.clone(),
-            topic: topic.to_string(),
-            detail: "more than 65535 channels".into(),
-        })
-    }
-}
 
 /// A cloneable handle for producer threads: everything a [`Recorder`](super::Recorder) offers
 /// except finishing. Calls fail with [`SessionError::Closed`] once the

@@ -9,45 +9,15 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, RecvTimeoutError};
+use mcap::Attachment;
 use mcap::records::{MessageHeader, Metadata};
-use mcap::{Attachment, McapError};
 use slidetrack_core::TimeNs;
 
-use super::error::SessionError;
-use super::messages::{ChannelMessage, MESSAGE_ENCODING_JSON, RecorderStats, SCHEMA_ENCODING_JSONSCHEMA};
+use super::channel::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
+use super::error::{SessionError, WriteFailure};
+use super::messages::RecorderStats;
 use super::metadata::{OUTCOME_METADATA, SessionOutcome};
-use super::writer::{ChannelRegistration, Shared};
-
-/// What producers send to the writer thread.
-pub(crate) enum Command {
-    Channel {
-        id: u16,
-        registration: Box<ChannelRegistration>,
-    },
-    Message {
-        channel: u16,
-        log_time: TimeNs,
-        publish_time: TimeNs,
-        sequence: u32,
-        payload: Vec<u8>,
-        /// Counted in `Shared::lossy_bytes_queued` until dequeued.
-        lossy: bool,
-    },
-    Attachment {
-        name: String,
-        media_type: String,
-        data: Vec<u8>,
-    },
-    Metadata {
-        name: String,
-        map: BTreeMap<String, String>,
-    },
-    /// Write the stats message (on this channel id) and the outcome, then the summary.
-    Finish {
-        stats_channel: Option<u16>,
-        outcome: Option<(bool, Option<String>)>,
-    },
-}
+use super::shared::{Command, Shared};
 
 /// Where a [`Recorder`](super::Recorder) writes: the session file, or any
 /// seekable byte sink (a buffer in memory, a file behind a test's gate).
@@ -79,24 +49,6 @@ pub(crate) struct WriterThread {
     chunk_opened_at: Option<Instant>,
     messages_written: u64,
     last_log_time: TimeNs,
-}
-
-/// A failed write: the I/O kind when there is one, and the message.
-struct Failure(Option<std::io::ErrorKind>, String);
-
-impl From<McapError> for Failure {
-    fn from(e: McapError) -> Failure {
-        match e {
-            McapError::Io(io) => Failure(Some(io.kind()), io.to_string()),
-            other => Failure(None, other.to_string()),
-        }
-    }
-}
-
-impl From<std::io::Error> for Failure {
-    fn from(e: std::io::Error) -> Failure {
-        Failure(Some(e.kind()), e.to_string())
-    }
 }
 
 impl WriterThread {
@@ -134,14 +86,14 @@ impl WriterThread {
                 Err(RecvTimeoutError::Disconnected) => return self.finish(None, None),
             };
             let step = step.and_then(|()| self.flush_if_due());
-            if let Err(Failure(kind, detail)) = step {
-                self.shared.fail(kind, detail);
+            if let Err(failure) = step {
+                self.shared.fail(failure);
                 return self.drain();
             }
         }
     }
 
-    fn handle(&mut self, cmd: Command) -> Result<(), Failure> {
+    fn handle(&mut self, cmd: Command) -> Result<(), WriteFailure> {
         match cmd {
             Command::Channel { id, registration: r } => {
                 let schema_id = if r.schema_name.is_empty() && r.schema_encoding.is_empty() {
@@ -186,7 +138,7 @@ impl WriterThread {
         publish_time: TimeNs,
         sequence: u32,
         payload: &[u8],
-    ) -> Result<(), Failure> {
+    ) -> Result<(), WriteFailure> {
         let header = MessageHeader {
             channel_id: channel,
             sequence,
@@ -200,7 +152,7 @@ impl WriterThread {
         Ok(())
     }
 
-    fn flush_if_due(&mut self) -> Result<(), Failure> {
+    fn flush_if_due(&mut self) -> Result<(), WriteFailure> {
         match self.chunk_opened_at {
             Some(t) if t.elapsed() >= self.flush_interval => self.flush(),
             _ => Ok(()),
@@ -208,7 +160,7 @@ impl WriterThread {
     }
 
     /// Closes the open chunk and hands the bytes to the OS.
-    fn flush(&mut self) -> Result<(), Failure> {
+    fn flush(&mut self) -> Result<(), WriteFailure> {
         self.writer.flush()?;
         self.chunk_opened_at = None;
         Ok(())
@@ -223,18 +175,19 @@ impl WriterThread {
             messages_written: self.messages_written,
             images_dropped: self.shared.images_dropped.load(Ordering::Relaxed),
         };
-        let WriterThread { writer, shared, last_log_time, .. } = self;
-        let mut writer = Some(writer);
-        match write_end(&mut writer, last_log_time, stats, stats_channel, outcome) {
-            Ok(()) => Ok(stats),
-            Err(Failure(kind, detail)) => {
-                if let Some(w) = writer {
-                    abandon(w);
-                }
-                shared.fail(kind, detail);
-                Err(shared.closed())
+        let WriterThread { mut writer, shared, last_log_time, .. } = self;
+        let written = write_end(&mut writer, last_log_time, stats, stats_channel, outcome);
+        let closed = match written {
+            Ok(()) => close(writer),
+            Err(failure) => {
+                abandon(writer);
+                Err(failure)
             }
-        }
+        };
+        closed.map(|()| stats).map_err(|failure| {
+            shared.fail(failure);
+            shared.closed()
+        })
     }
 
     /// After a failure: leave the file as a crash would (no more writes),
@@ -263,18 +216,14 @@ fn abandon(writer: McapWriter) {
     drop(file);
 }
 
-/// Writes the stats message, the outcome record and the summary, then syncs
-/// the file. On failure the writer is left in `slot` (taken when it is consumed).
+/// Writes the stats message, the outcome record and the summary.
 fn write_end(
-    slot: &mut Option<McapWriter>,
+    writer: &mut McapWriter,
     last_log_time: TimeNs,
     stats: RecorderStats,
     stats_channel: Option<u16>,
     outcome: Option<(bool, Option<String>)>,
-) -> Result<(), Failure> {
-    let Some(writer) = slot.as_mut() else {
-        return Err(Failure(None, "the writer is gone".into()));
-    };
+) -> Result<(), WriteFailure> {
     if let Some(id) = stats_channel {
         let schema = RecorderStats::json_schema().to_string();
         let schema_id =
@@ -282,7 +231,7 @@ fn write_end(
         let no_metadata = BTreeMap::new();
         let topic = RecorderStats::TOPIC;
         writer.add_channel_with_id(id, schema_id, topic, MESSAGE_ENCODING_JSON, &no_metadata)?;
-        let payload = serde_json::to_vec(&stats).map_err(|e| Failure(None, e.to_string()))?;
+        let payload = serde_json::to_vec(&stats).map_err(|e| WriteFailure::Encode(Arc::new(e)))?;
         let t = last_log_time.0;
         let header = MessageHeader { channel_id: id, sequence: 0, log_time: t, publish_time: t };
         writer.write_to_known_channel(&header, &payload)?;
@@ -294,9 +243,12 @@ fn write_end(
         writer.write_metadata(&record)?;
     }
     writer.finish()?;
-    if let Some(writer) = slot.take() {
-        let mut sink = writer.into_inner().into_inner().map_err(|e| Failure::from(e.into_error()))?;
-        sink.sync()?;
-    }
+    Ok(())
+}
+
+/// Hands the finished file's last bytes to the sink and syncs it.
+fn close(writer: McapWriter) -> Result<(), WriteFailure> {
+    let mut sink = writer.into_inner().into_inner().map_err(|e| e.into_error())?;
+    sink.sync()?;
     Ok(())
 }

@@ -1,10 +1,15 @@
 //! Tests of the session module, and the fixtures they share.
 
 mod bad_input;
+mod errors;
 mod kill;
+mod other_channels;
 mod python;
 mod queue;
+mod read_all;
+mod records;
 mod roundtrip;
+mod schema_validation;
 mod schemas;
 
 use std::collections::BTreeMap;
@@ -192,7 +197,11 @@ impl EveryChannel {
     }
 }
 
-fn log_all<T: ChannelMessage>(rec: &Recorder, meta: BTreeMap<String, String>, msgs: &[(TimeNs, T)]) {
+pub(super) fn log_all<T: ChannelMessage>(
+    rec: &Recorder,
+    meta: BTreeMap<String, String>,
+    msgs: &[(TimeNs, T)],
+) {
     let ch = rec.register::<T>(meta).unwrap();
     for (i, (t, m)) in msgs.iter().enumerate() {
         rec.log_json(&ch, *t, *t, i as u32, m).unwrap();
@@ -201,6 +210,16 @@ fn log_all<T: ChannelMessage>(rec: &Recorder, meta: BTreeMap<String, String>, ms
 
 /// Records `e` to `path` (channel by channel), with an attachment and the outcome.
 pub(super) fn record_every_channel(path: &Path, e: &EveryChannel, options: RecorderOptions) -> RecorderStats {
+    record_every_channel_and(path, e, options, |_| {})
+}
+
+/// [`record_every_channel`], and whatever `more` records before the recording finishes.
+pub(super) fn record_every_channel_and(
+    path: &Path,
+    e: &EveryChannel,
+    options: RecorderOptions,
+    more: impl FnOnce(&Recorder),
+) -> RecorderStats {
     let rec = Recorder::create_with_options(path, session_metadata().to_map(), options).unwrap();
     rec.attach("camera.toml", "application/toml", b"fx = 600.5\n".to_vec()).unwrap();
     let layout = TaxelLayout::new(
@@ -220,5 +239,6 @@ pub(super) fn record_every_channel(path: &Path, e: &EveryChannel, options: Recor
     for (i, (t, m)) in e.image.iter().enumerate() {
         assert!(rec.log_json_lossy(&images, *t, *t, i as u32, m).unwrap());
     }
+    more(&rec);
     rec.finish_with_outcome(true, None).unwrap()
 }

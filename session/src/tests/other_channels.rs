@@ -1,0 +1,83 @@
+//! One or two messages of every channel that [`EveryChannel`] leaves out
+//! (decoder counters, ground truth, estimates, RGB-D and vision tracking),
+//! so that a test can record a message of every channel of [`channel_specs`].
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use slidetrack_core::DepthImage;
+
+use super::*;
+use crate::vision_pose::{
+    MaskUkfPose, MaskUkfTransform, MaskUkfVelocity, RoftPose, RoftTransform, RoftVelocity,
+};
+
+fn pose(k: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(0.125 * k, -0.25, 0.5),
+        UnitQuaternion::from_euler_angles(0.1 * k, 0.2, -0.3),
+    )
+}
+
+fn sliding(k: f64) -> SlidingEstimate {
+    SlidingEstimate { position: 0.001 * k, velocity: -0.01, covariance: [[1e-8, 1e-9], [1e-9, 1e-6]] }
+}
+
+fn velocity(k: f64) -> VelocityEstimate {
+    VelocityEstimate {
+        frame_id: "camera".into(),
+        linear_velocity_mps: [0.01 * k, 0.0, -0.02],
+        angular_velocity_radps: [0.0, 0.1, 0.2 * k],
+    }
+}
+
+/// Logs `message` on its channel at `t`.
+fn log_one<T: ChannelMessage>(rec: &Recorder, t: TimeNs, message: T) {
+    let channel = rec.register::<T>(BTreeMap::new()).unwrap();
+    rec.log_json(&channel, t, t, 0, &message).unwrap();
+}
+
+/// Logs two messages on `rec` on every channel not in [`EveryChannel`].
+pub(super) fn log_other_channels(rec: &Recorder) {
+    for i in 0..2 {
+        let k = i as f64;
+        let t = t_ms(2 * i);
+        let counters =
+            TactileDecoder { frames: 100 + i, crc_errors: i, gaps: 2, ..TactileDecoder::default() };
+        log_one(rec, t, counters);
+        let truth = GroundTruthSliding {
+            position: 0.001 * k,
+            velocity: 0.02,
+            covariance: [[1e-8, 0.0], [0.0, 1e-6]],
+        };
+        log_one(rec, t, truth);
+        log_one(rec, t, GroundTruthMeasurement { position: 0.002, rejected: i == 1, mahalanobis2: 0.5 });
+        log_one(rec, t, TactileDerivative { values: vec![1.5, -2.25, 0.0, k] });
+        log_one(rec, t, DekfEstimate(sliding(k)));
+        log_one(rec, t, ArucoEstimate(sliding(k + 1.0)));
+
+        let jpeg = EncodedImage { format: "jpeg".into(), bytes: vec![0xFF, 0xD8, i as u8, 0xFF, 0xD9] };
+        log_one(rec, t, RgbdColor(CompressedImage::new(t, "camera", &jpeg)));
+        let depth = DepthImage { width: 2, height: 2, data: vec![0, 1000, 2000, 65535], scale_m: 0.001 };
+        log_one(rec, t, RgbdDepth(RawImage::depth(t, "camera", &depth)));
+        log_one(rec, t, RgbdCalibration(CameraCalibration::new(t, "camera", &intrinsics())));
+        let mask = RawImage::mask(t, "camera", 2, 2, &[0, 1, 1, 0]);
+        log_one(rec, t, RgbdMask(mask.clone()));
+        log_one(rec, t, VisionMask(mask));
+        let object = ObjectTruth {
+            position_m: [0.1, -0.2, 0.6],
+            orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+            linear_velocity_mps: [0.0, 0.01 * k, 0.0],
+            angular_velocity_radps: [0.0, 0.0, 0.5],
+        };
+        log_one(rec, t, object);
+        log_one(rec, t, VisionPose(PoseInFrame::new(t, "camera", &pose(k))));
+        log_one(rec, t, MaskUkfPose(PoseInFrame::new(t, "camera", &pose(k + 1.0))));
+        log_one(rec, t, RoftPose(PoseInFrame::new(t, "camera", &pose(k + 2.0))));
+        let transform = |child, k| FrameTransform::new(t, "camera", child, &pose(k));
+        log_one(rec, t, MaskUkfTransform(transform("object/maskukf", k)));
+        log_one(rec, t, RoftTransform(transform("object/roft", k + 1.0)));
+        log_one(rec, t, MaskUkfVelocity(velocity(k)));
+        log_one(rec, t, RoftVelocity(velocity(k + 1.0)));
+    }
+}
