@@ -11,6 +11,7 @@ use serde::Deserialize;
 use slidetrack_core::{CameraPlacement, TimeNs};
 use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams, CvTrack};
 use slidetrack_estimators::kf::Gaussian;
+use slidetrack_estimators::metrics::RunningRms;
 use slidetrack_estimators::rts::{Gate, MeasurementUse};
 use slidetrack_session::{ArucoDetection, GroundTruthMeasurement, GroundTruthSliding, SimTruth};
 use thiserror::Error;
@@ -392,18 +393,13 @@ pub fn rmse_against_truth(
         Some((lerp(before.1.position, after.1.position), lerp(before.1.velocity, after.1.velocity)))
     };
     let (origin, _) = at(measured_from)?;
-    let (mut sp, mut sv, mut n) = (0.0, 0.0, 0usize);
+    let (mut position, mut velocity) = (RunningRms::default(), RunningRms::default());
     for (t, e) in estimate.iter().filter(|(t, _)| (measured_from..=measured_until).contains(t)) {
         let Some((p, v)) = at(*t) else { continue };
-        sp += (e.position - (p - origin)).powi(2);
-        sv += (e.velocity - v).powi(2);
-        n += 1;
+        position.add(e.position - (p - origin));
+        velocity.add(e.velocity - v);
     }
-    (n > 0).then(|| Rmse {
-        position_m: (sp / n as f64).sqrt(),
-        velocity_mps: (sv / n as f64).sqrt(),
-        samples: n,
-    })
+    Some(Rmse { position_m: position.rms()?, velocity_mps: velocity.rms()?, samples: position.count() })
 }
 
 /// A gate for `max_mahalanobis2`, `None` when it is not a positive number.

@@ -172,6 +172,18 @@ mod tests {
     use crate::kf::{ConstantVelocity, CovarianceUpdate, predict, update};
 
     #[test]
+    fn the_default_is_the_thesis_model_and_matches_the_smoother_defaults_at_30_hz() {
+        let cv = ConstantVelocity::default();
+        assert_eq!(cv.Q(), SMatrix::<f64, 2, 2>::new(0.01, 0.0, 0.0, 0.01));
+        assert_eq!(cv.R()[(0, 0)], 10.0);
+        // The same filter in cm (thesis) and in m (the smoother's SI rates) gives the same track.
+        let si = CvSmootherParams::default();
+        let (dt, cm) = (1.0 / 30.0, 0.01);
+        assert_relative_eq!(si.Q(dt) / (cm * cm), cv.Q(), max_relative = 1e-12);
+        assert_relative_eq!(si.r_m2 / (cm * cm), cv.r, max_relative = 1e-12);
+    }
+
+    #[test]
     fn the_per_step_thesis_values_map_to_densities_that_give_them_back_at_30_hz() {
         let p = CvSmootherParams::from_per_step([0.01, 0.01], 10.0, 1.0 / 30.0, 0.01);
         let Q = p.Q(1.0 / 30.0);

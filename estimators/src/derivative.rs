@@ -51,6 +51,11 @@ impl DerivativeFilter {
         }
     }
 
+    /// Number of channels filtered.
+    pub fn channels(&self) -> usize {
+        self.beliefs.len()
+    }
+
     /// The settings.
     pub fn config(&self) -> &DerivativeFilterConfig {
         &self.cfg

@@ -174,18 +174,6 @@ mod tests {
     }
 
     #[test]
-    fn the_default_is_the_thesis_model_and_matches_the_smoother_defaults_at_30_hz() {
-        let cv = ConstantVelocity::default();
-        assert_eq!(cv.Q(), SMatrix::<f64, 2, 2>::new(0.01, 0.0, 0.0, 0.01));
-        assert_eq!(cv.R()[(0, 0)], 10.0);
-        // The same filter in cm (thesis) and in m (the smoother's SI rates) gives the same track.
-        let si = crate::cv_smoother::CvSmootherParams::default();
-        let (dt, cm) = (1.0 / 30.0, 0.01);
-        assert_relative_eq!(si.Q(dt) / (cm * cm), cv.Q(), max_relative = 1e-12);
-        assert_relative_eq!(si.r_m2 / (cm * cm), cv.r, max_relative = 1e-12);
-    }
-
-    #[test]
     fn constant_velocity_without_noise_extrapolates_exactly() {
         let cv = ConstantVelocity { q_diag: [0.0, 0.0], r: 1.0 };
         let mut b = Gaussian::new(SVector::<f64, 2>::new(1.0, 2.0), SMatrix::<f64, 2, 2>::zeros());

@@ -14,12 +14,42 @@ use crate::maskukf::ObjectPoints;
 /// The threshold of the AUC metrics used in the thesis: 10 cm.
 pub const AUC_THRESHOLD_M: f64 = 0.1;
 
+/// The root mean square of a stream of errors (eq. 3.44), accumulated one
+/// error at a time: the RMSE of every score in the project.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RunningRms {
+    n: usize,
+    sum_sq: f64,
+}
+
+impl RunningRms {
+    /// Adds one error.
+    pub fn add(&mut self, error: f64) {
+        self.n += 1;
+        self.sum_sq += error * error;
+    }
+
+    /// Errors added.
+    pub fn count(&self) -> usize {
+        self.n
+    }
+
+    /// `sqrt(sum e^2 / n)`, `None` before the first error.
+    pub fn rms(&self) -> Option<f64> {
+        (self.n > 0).then(|| (self.sum_sq / self.n as f64).sqrt())
+    }
+}
+
 /// `RMSE = sqrt(Σ e_t² / N)` (3.44); `None` for no errors or a non-finite one.
 pub fn rmse(errors: &[f64]) -> Option<f64> {
-    if errors.is_empty() || !errors.iter().all(|e| e.is_finite()) {
+    if !errors.iter().all(|e| e.is_finite()) {
         return None;
     }
-    Some((errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt())
+    let mut rms = RunningRms::default();
+    for e in errors {
+        rms.add(*e);
+    }
+    rms.rms()
 }
 
 /// Position error `|p - p_gt|` (m) (3.45).

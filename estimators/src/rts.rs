@@ -95,37 +95,33 @@ pub struct FilteredStep<const N: usize> {
     pub measurement: MeasurementUse,
 }
 
-/// The forward Kalman filter, recording every step for [`smooth`].
-#[derive(Clone, Debug)]
-pub struct ForwardFilter<const N: usize> {
+/// A linear Kalman filter (Algorithm 1) with an optional innovation gate,
+/// one step at a time, keeping only its current belief: the causal filter of
+/// live tracking, and the forward pass under [`ForwardFilter`].
+#[derive(Clone, Copy, Debug)]
+pub struct GatedKalmanFilter<const N: usize> {
     belief: Gaussian<N>,
     gate: Option<Gate>,
     form: CovarianceUpdate,
-    steps: Vec<FilteredStep<N>>,
 }
 
-impl<const N: usize> ForwardFilter<N> {
+impl<const N: usize> GatedKalmanFilter<N> {
     /// A filter starting from `initial`, the belief before the first step,
     /// without gating, with the Joseph-form covariance update.
-    pub fn new(initial: Gaussian<N>) -> ForwardFilter<N> {
-        ForwardFilter { belief: initial, gate: None, form: CovarianceUpdate::Joseph, steps: Vec::new() }
+    pub fn new(initial: Gaussian<N>) -> GatedKalmanFilter<N> {
+        GatedKalmanFilter { belief: initial, gate: None, form: CovarianceUpdate::Joseph }
     }
 
     /// Gates every measurement (see [`Gate`]).
-    pub fn with_gate(mut self, gate: Option<Gate>) -> ForwardFilter<N> {
+    pub fn with_gate(mut self, gate: Option<Gate>) -> GatedKalmanFilter<N> {
         self.gate = gate;
         self
     }
 
     /// Uses `form` for the covariance update.
-    pub fn with_covariance_update(mut self, form: CovarianceUpdate) -> ForwardFilter<N> {
+    pub fn with_covariance_update(mut self, form: CovarianceUpdate) -> GatedKalmanFilter<N> {
         self.form = form;
         self
-    }
-
-    /// Room for `n` more steps.
-    pub fn reserve(&mut self, n: usize) {
-        self.steps.reserve(n);
     }
 
     /// The current belief (the last posterior, or the initial belief).
@@ -140,16 +136,14 @@ impl<const N: usize> ForwardFilter<N> {
         &mut self,
         transition: Transition<N>,
         measurement: Option<&Measurement<N, M>>,
-    ) -> Result<&FilteredStep<N>, EstimatorError> {
+    ) -> Result<FilteredStep<N>, EstimatorError> {
         let prior = predict(&self.belief, &transition.F, &transition.Q);
         let (posterior, used) = match measurement {
             None => (prior, MeasurementUse::Missing),
             Some(m) => self.correct(&prior, m)?,
         };
         self.belief = posterior;
-        self.steps.push(FilteredStep { transition, prior, posterior, measurement: used });
-        // Just pushed: the vector is not empty.
-        Ok(&self.steps[self.steps.len() - 1])
+        Ok(FilteredStep { transition, prior, posterior, measurement: used })
     }
 
     fn correct<const M: usize>(
@@ -170,6 +164,55 @@ impl<const N: usize> ForwardFilter<N> {
         }
         let (posterior, innov) = update(prior, &m.z, &m.H, &m.R, self.form)?;
         Ok((posterior, MeasurementUse::Accepted { mahalanobis2: innov.mahalanobis2 }))
+    }
+}
+
+/// The forward Kalman filter, recording every step for [`smooth`].
+#[derive(Clone, Debug)]
+pub struct ForwardFilter<const N: usize> {
+    filter: GatedKalmanFilter<N>,
+    steps: Vec<FilteredStep<N>>,
+}
+
+impl<const N: usize> ForwardFilter<N> {
+    /// A filter starting from `initial`, the belief before the first step,
+    /// without gating, with the Joseph-form covariance update.
+    pub fn new(initial: Gaussian<N>) -> ForwardFilter<N> {
+        ForwardFilter { filter: GatedKalmanFilter::new(initial), steps: Vec::new() }
+    }
+
+    /// Gates every measurement (see [`Gate`]).
+    pub fn with_gate(mut self, gate: Option<Gate>) -> ForwardFilter<N> {
+        self.filter = self.filter.with_gate(gate);
+        self
+    }
+
+    /// Uses `form` for the covariance update.
+    pub fn with_covariance_update(mut self, form: CovarianceUpdate) -> ForwardFilter<N> {
+        self.filter = self.filter.with_covariance_update(form);
+        self
+    }
+
+    /// Room for `n` more steps.
+    pub fn reserve(&mut self, n: usize) {
+        self.steps.reserve(n);
+    }
+
+    /// The current belief (the last posterior, or the initial belief).
+    pub fn belief(&self) -> &Gaussian<N> {
+        self.filter.belief()
+    }
+
+    /// One step of [`GatedKalmanFilter::step`], recorded.
+    pub fn step<const M: usize>(
+        &mut self,
+        transition: Transition<N>,
+        measurement: Option<&Measurement<N, M>>,
+    ) -> Result<&FilteredStep<N>, EstimatorError> {
+        let step = self.filter.step(transition, measurement)?;
+        self.steps.push(step);
+        // Just pushed: the vector is not empty.
+        Ok(&self.steps[self.steps.len() - 1])
     }
 
     /// The steps so far.

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 use slidetrack_core::TimeNs;
-use slidetrack_session::{ReadOptions, SessionError, TactileZeroed, read_channel, read_json, release_time};
+use slidetrack_session::{ChannelMessage, MessageReader, ProtocolEvent, ReadOptions, TactileZeroed};
 
 /// Topic of the ground truth written by `slidetrack label`.
 pub const GROUND_TRUTH_TOPIC: &str = "/ground_truth/sliding";
@@ -106,46 +106,75 @@ pub struct SessionData {
     pub rate_hz: f64,
 }
 
+/// The recorded channels [`load`] reads, in one pass over the file.
+#[derive(Default)]
+struct Recorded {
+    release: Option<TimeNs>,
+    zeroed: Vec<(TimeNs, [f64; 9])>,
+    truth: Vec<(TimeNs, [f64; 2])>,
+}
+
+/// Reads the protocol events, the zeroed scans and `truth_topic` of `path`
+/// in one pass.
+fn read_recorded(path: &Path, truth_topic: Option<&str>) -> Result<(Recorded, Vec<String>)> {
+    let mut topics = vec![ProtocolEvent::TOPIC, TactileZeroed::TOPIC];
+    topics.extend(truth_topic);
+    let mut reader = MessageReader::open(path, &topics, ReadOptions::default())?;
+    let mut out = Recorded::default();
+    for message in reader.by_ref() {
+        let m = message?;
+        let t = m.log_time;
+        let what = || format!("{}: {} at {t}", path.display(), m.topic());
+        match m.topic() {
+            ProtocolEvent::TOPIC => {
+                let event: ProtocolEvent = serde_json::from_slice(&m.data).with_context(what)?;
+                if out.release.is_none() && event.ends_cycles() {
+                    out.release = Some(t);
+                }
+            }
+            TactileZeroed::TOPIC => {
+                let z: TactileZeroed = serde_json::from_slice(&m.data).with_context(what)?;
+                let [a, b, c] = z.counts.into_array().map(|xyz| xyz.to_array());
+                out.zeroed.push((t, [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]]));
+            }
+            _ => {
+                let r: PositionVelocity = serde_json::from_slice(&m.data).with_context(what)?;
+                out.truth.push((t, [r.position, r.velocity]));
+            }
+        }
+    }
+    let declared = reader.channels().map(|c| c.topic.clone()).collect();
+    Ok((out, declared))
+}
+
 /// Reads a session; `truth` names the truth to attach (an error when the
 /// session lacks it), or `None` for none.
 pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
-    let end = release_time(path, ReadOptions::default())?.unwrap_or(TimeNs(u64::MAX));
-    let zeroed = read_channel::<TactileZeroed>(path, ReadOptions::default())
-        .with_context(|| format!("{}: no baseline-subtracted tactile data", path.display()))?;
-    let zeroed: Vec<_> = zeroed.into_iter().filter(|(t, _)| *t < end).collect();
+    let (recorded, declared) = read_recorded(path, truth.map(TruthSource::topic))?;
+    if !declared.iter().any(|t| t == TactileZeroed::TOPIC) {
+        bail!("{}: no baseline-subtracted tactile data ({})", path.display(), TactileZeroed::TOPIC);
+    }
+    let end = recorded.release.unwrap_or(TimeNs(u64::MAX));
+    let zeroed: Vec<_> = recorded.zeroed.into_iter().filter(|(t, _)| *t < end).collect();
     if zeroed.len() < 10 {
         bail!("{}: only {} tactile scans before the release", path.display(), zeroed.len());
     }
-    let times: Vec<TimeNs> = zeroed.iter().map(|(t, _)| *t).collect();
-    let values: Vec<[f64; 9]> = zeroed
-        .iter()
-        .map(|(_, z)| {
-            let c = &z.counts;
-            let f = [c.thumb, c.index, c.middle];
-            [f[0].x, f[0].y, f[0].z, f[1].x, f[1].y, f[1].z, f[2].x, f[2].y, f[2].z]
-        })
-        .collect();
+    let (times, values): (Vec<TimeNs>, Vec<[f64; 9]>) = zeroed.into_iter().unzip();
     let span_s = times[times.len() - 1].secs_since(times[0]);
     let rate_hz = (times.len() - 1) as f64 / span_s.max(1e-9);
     let truth = match truth {
         None => None,
         Some(source) => {
-            let rows = match read_json::<PositionVelocity>(path, source.topic(), ReadOptions::default()) {
-                Ok(rows) => rows,
-                Err(SessionError::NoSuchTopic { .. }) => bail!(
-                    "{} has no {}{}",
-                    path.display(),
-                    source.topic(),
-                    if source == TruthSource::GroundTruth {
-                        "; run `slidetrack label` on it first"
-                    } else {
-                        ""
-                    }
-                ),
-                Err(e) => return Err(e.into()),
-            };
+            if !declared.iter().any(|t| t == source.topic()) {
+                let hint = if source == TruthSource::GroundTruth {
+                    "; run `slidetrack label` on it first"
+                } else {
+                    ""
+                };
+                bail!("{} has no {}{hint}", path.display(), source.topic());
+            }
             let by_time: std::collections::HashMap<u64, [f64; 2]> =
-                rows.iter().map(|(t, r)| (t.0, [r.position, r.velocity])).collect();
+                recorded.truth.iter().map(|(t, r)| (t.0, *r)).collect();
             let aligned: Option<Vec<[f64; 2]>> = times.iter().map(|t| by_time.get(&t.0).copied()).collect();
             Some(aligned.with_context(|| {
                 format!("{}: {} does not cover every tactile scan", path.display(), source.topic())

@@ -5,10 +5,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Result, bail};
 use serde::Serialize;
-use slidetrack_estimators::dekf::DekfModel;
+use slidetrack_core::TimeNs;
+use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
 
 use crate::dataset::{SessionData, TruthSource, load};
 use crate::dekf_run::{CM, Scores, mean_scores, run, score};
+use crate::replay::replay_dekf;
 
 /// The scores of one session.
 #[derive(Clone, Debug, Serialize)]
@@ -38,15 +40,21 @@ pub struct EvalReport {
 
 /// Scores of `model` on one session against `truth` (relative to the first step).
 pub fn score_session(model: &DekfModel, data: &SessionData) -> Result<Scores> {
-    let outputs = run(model, data)?;
+    score_outputs(&run(model, data)?, data)
+}
+
+/// Scores the estimates `outputs` of a run over `data`'s session against
+/// its truth: the steps before the release, positions relative to the first.
+pub fn score_outputs(outputs: &[(TimeNs, DekfOutput)], data: &SessionData) -> Result<Scores> {
     let Some(truth) = &data.truth else { bail!("{} has no truth to score against", data.path.display()) };
-    let start = data.times.iter().position(|t| *t == outputs[0].0).unwrap_or(0);
+    let Some((first, _)) = outputs.first() else { bail!("{}: the dEKF made no step", data.path.display()) };
+    let start = data.times.iter().position(|t| t == first).unwrap_or(0);
     let origin = truth[start][0];
     let index: std::collections::HashMap<u64, usize> =
         data.times.iter().enumerate().map(|(i, t)| (t.0, i)).collect();
     let mut est = Vec::with_capacity(outputs.len());
     let mut tru = Vec::with_capacity(outputs.len());
-    for (t, o) in &outputs {
+    for (t, o) in outputs {
         if let Some(&i) = index.get(&t.0) {
             est.push(o.mean);
             tru.push([(truth[i][0] - origin) * CM, truth[i][1] * CM]);
@@ -55,14 +63,17 @@ pub fn score_session(model: &DekfModel, data: &SessionData) -> Result<Scores> {
     Ok(score(&est, &tru))
 }
 
-/// Evaluates `model` on `files` against `truth`.
+/// Evaluates `model` on `files` against `truth`: each session replayed
+/// through the replay rig, as `track` would have run the model live.
 pub fn evaluate(model: &DekfModel, files: &[PathBuf], truth: TruthSource) -> Result<EvalReport> {
     let mut sessions = Vec::new();
     for f in files {
-        let main = score_session(model, &load(f, Some(truth))?)?;
+        let data = load(f, Some(truth))?;
+        let outputs = replay_dekf(f, model)?;
+        let main = score_outputs(&outputs, &data)?;
         let sim = if truth != TruthSource::Sim {
             match load(f, Some(TruthSource::Sim)) {
-                Ok(d) => Some(score_session(model, &d)?),
+                Ok(d) => Some(score_outputs(&outputs, &d)?),
                 Err(_) => None,
             }
         } else {

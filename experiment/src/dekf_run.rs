@@ -7,8 +7,9 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use serde::Serialize;
 use slidetrack_core::TimeNs;
-use slidetrack_estimators::dekf::{DekfModel, DekfOutput, DekfTracker, Measurement, Sequence};
-use slidetrack_estimators::derivative::{DerivativeFilter, DerivativeFilterConfig};
+use slidetrack_estimators::dekf::{DekfInput, DekfModel, DekfOutput, DekfTracker, Measurement, Sequence};
+use slidetrack_estimators::derivative::DerivativeFilterConfig;
+use slidetrack_estimators::metrics::RunningRms;
 use slidetrack_session::{DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate};
 
 use crate::dataset::{SessionData, channel_indices};
@@ -26,7 +27,8 @@ pub struct Inputs {
     pub truth: Option<Vec<[f64; 2]>>,
 }
 
-/// The filter-rate inputs of `session` for the given channels and measurement.
+/// The filter-rate inputs of `session` for the given channels and
+/// measurement, through the online filter's own input pipeline ([`DekfInput`]).
 pub fn inputs(
     session: &SessionData,
     channels: &[String],
@@ -35,7 +37,7 @@ pub fn inputs(
     decimation: usize,
 ) -> Result<Inputs> {
     let idx = channel_indices(channels)?;
-    let mut derivative = DerivativeFilter::new(filter, idx.len());
+    let mut input = DekfInput::new(measurement, filter, idx.len(), decimation);
     let mut out = Inputs {
         times: Vec::new(),
         measurements: Vec::new(),
@@ -47,15 +49,9 @@ pub fn inputs(
         for (v, &i) in values.iter_mut().zip(&idx) {
             *v = z[i];
         }
-        let d = derivative.step(t.as_secs_f64(), &values);
-        if k % decimation != 0 {
-            continue;
-        }
+        let Some(step) = input.on_scan(t.as_secs_f64(), &values) else { continue };
         out.times.push(*t);
-        out.measurements.push(match measurement {
-            Measurement::Derivative => d.to_vec(),
-            Measurement::Raw => values.clone(),
-        });
+        out.measurements.push(step.measurement);
         if let (Some(truth), Some(all), Some(o)) = (out.truth.as_mut(), session.truth.as_ref(), origin) {
             truth.push([(all[k][0] - o[0]) * CM, all[k][1] * CM]);
         }
@@ -119,23 +115,45 @@ pub fn check_compatible(model: &DekfModel, session: &SessionData) -> Result<()> 
     Ok(())
 }
 
-/// Runs `model` over `session` from its first scan: the estimates of every
-/// filter step with their scan times.
+/// The dEKF on a stream of baseline-subtracted scans: the model's channels
+/// picked from each scan, then the online tracker (its input pipeline and
+/// filter). Live tracking, replays and scoring all step the dEKF through it.
+pub struct DekfStage {
+    tracker: DekfTracker,
+    channels: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl DekfStage {
+    /// The stage of `model`; fails when its channels are not tactile channels.
+    pub fn new(model: &DekfModel) -> Result<DekfStage> {
+        let channels = channel_indices(&model.meta.channels)?;
+        Ok(DekfStage { tracker: DekfTracker::new(model), values: vec![0.0; channels.len()], channels })
+    }
+
+    /// One scan at `t`: the nine baseline-subtracted channels (counts) in
+    /// the order of [`ALL_CHANNELS`](crate::dataset::ALL_CHANNELS). Returns the
+    /// estimate at filter steps.
+    pub fn on_scan(&mut self, t: TimeNs, zeroed: &[f64; 9]) -> Option<DekfOutput> {
+        for (v, &i) in self.values.iter_mut().zip(&self.channels) {
+            *v = zeroed[i];
+        }
+        self.tracker.on_scan(t.as_secs_f64(), &self.values)
+    }
+}
+
+/// Runs `model` over `session`'s recorded scans from the first: the
+/// estimates of every filter step with their scan times (the training's
+/// epoch selection; sessions are replayed through [`crate::replay`]).
 pub fn run(model: &DekfModel, session: &SessionData) -> Result<Vec<(TimeNs, DekfOutput)>> {
     check_compatible(model, session)?;
-    let idx = channel_indices(&model.meta.channels)?;
-    let mut tracker = DekfTracker::new(model);
-    let mut values = vec![0.0; idx.len()];
-    let mut out = Vec::new();
-    for (t, z) in session.times.iter().zip(&session.zeroed) {
-        for (v, &i) in values.iter_mut().zip(&idx) {
-            *v = z[i];
-        }
-        if let Some(o) = tracker.on_scan(t.as_secs_f64(), &values) {
-            out.push((*t, o));
-        }
-    }
-    Ok(out)
+    let mut stage = DekfStage::new(model)?;
+    Ok(session
+        .times
+        .iter()
+        .zip(&session.zeroed)
+        .filter_map(|(t, z)| Some((*t, stage.on_scan(*t, z)?)))
+        .collect())
 }
 
 /// The `/estimate/dekf` message of a dEKF output (cm -> m).
@@ -184,21 +202,21 @@ pub struct Scores {
 pub fn score(estimates: &[[f64; 2]], truth: &[[f64; 2]]) -> Scores {
     let n = estimates.len().min(truth.len());
     let mut s = Scores { steps: n, ..Scores::default() };
-    let (mut sp, mut sv, mut bp, mut bv) = (0.0, 0.0, 0.0, 0.0);
+    let [mut p, mut v, mut base_p, mut base_v] = [RunningRms::default(); 4];
     for (e, t) in estimates.iter().zip(truth).take(n) {
-        let (dp, dv) = ((e[0] - t[0]).abs(), (e[1] - t[1]).abs());
-        sp += dp * dp;
-        sv += dv * dv;
-        bp += t[0] * t[0];
-        bv += t[1] * t[1];
-        s.position_max_cm = s.position_max_cm.max(dp);
-        s.velocity_max_cmps = s.velocity_max_cmps.max(dv);
+        let (dp, dv) = (e[0] - t[0], e[1] - t[1]);
+        p.add(dp);
+        v.add(dv);
+        base_p.add(t[0]);
+        base_v.add(t[1]);
+        s.position_max_cm = s.position_max_cm.max(dp.abs());
+        s.velocity_max_cmps = s.velocity_max_cmps.max(dv.abs());
     }
-    let n = n.max(1) as f64;
-    s.position_rmse_cm = (sp / n).sqrt();
-    s.velocity_rmse_cmps = (sv / n).sqrt();
-    s.baseline_position_rmse_cm = (bp / n).sqrt();
-    s.baseline_velocity_rmse_cmps = (bv / n).sqrt();
+    // No steps: zero errors, as a run without steps scored before.
+    s.position_rmse_cm = p.rms().unwrap_or(0.0);
+    s.velocity_rmse_cmps = v.rms().unwrap_or(0.0);
+    s.baseline_position_rmse_cm = base_p.rms().unwrap_or(0.0);
+    s.baseline_velocity_rmse_cmps = base_v.rms().unwrap_or(0.0);
     s
 }
 

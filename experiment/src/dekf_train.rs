@@ -2,13 +2,11 @@
 //! each session, the normalisation, BPTT over the schedule and the epoch
 //! selection on whole training sessions.
 
-use std::path::Path;
-
 use anyhow::{Context, Result, bail};
 use rand::SeedableRng;
 use serde_json::json;
 use slidetrack_estimators::dekf::{
-    DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Stage, TrainConfig,
+    DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence, Stage, TrainConfig,
     train_with_selection,
 };
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
@@ -107,6 +105,64 @@ pub struct Trained {
     pub seconds: f64,
 }
 
+/// The tactile rate shared by `sessions` (Hz); fails when they differ by more than 5 %.
+fn common_tactile_rate(sessions: &[SessionData]) -> Result<f64> {
+    let Some(first) = sessions.first() else { bail!("no sessions to train on") };
+    for s in sessions {
+        if (s.rate_hz - first.rate_hz).abs() > 0.05 * first.rate_hz {
+            bail!(
+                "{}: tactile rate {:.1} Hz differs from {:.1} Hz of {}",
+                s.path.display(),
+                s.rate_hz,
+                first.rate_hz,
+                first.path.display()
+            );
+        }
+    }
+    Ok(first.rate_hz)
+}
+
+/// A new model for `spec` on `sessions`, its input normalisation set, and
+/// its training sequences.
+fn new_model(
+    spec: &TrainSpec,
+    cfg: &TrainConfig,
+    sessions: &[SessionData],
+) -> Result<(DekfModel, Vec<Sequence>)> {
+    let tactile_rate = common_tactile_rate(sessions)?;
+    let decimation = ((tactile_rate / spec.rate_hz).round() as usize).max(1);
+    let channels = spec.channels.names();
+    let filter = DerivativeFilterConfig::default();
+    let prepared: Vec<Inputs> = sessions
+        .iter()
+        .map(|s| inputs(s, &channels, spec.measurement, filter, decimation))
+        .collect::<Result<_>>()?;
+    let files: Vec<String> = sessions.iter().map(|s| s.path.display().to_string()).collect();
+    let meta = ModelMeta {
+        dt_s: decimation as f64 / tactile_rate,
+        decimation,
+        tactile_rate_hz: tactile_rate,
+        channels: channels.clone(),
+        measurement: spec.measurement,
+        derivative_filter: filter,
+        state_units: ["cm".into(), "cm/s".into()],
+        p0_diag: [0.1, 0.1],
+        training: json!({
+            "config": cfg,
+            "truth": spec.truth.topic(),
+            "channel_set": spec.channels.name(),
+            "sessions": files,
+            "steps": prepared.iter().map(|p| p.times.len()).sum::<usize>(),
+        }),
+        software_version: env!("CARGO_PKG_VERSION").into(),
+    };
+    let mut model = DekfModel::new(meta, &mut rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed));
+    let (mean, std) = normalisation(&prepared.iter().collect::<Vec<_>>(), channels.len());
+    model.set_input_normalisation(&mean, &std);
+    let data = prepared.iter().map(|p| sequence(&model, p)).collect::<Result<Vec<_>>>()?;
+    Ok((model, data))
+}
+
 /// Trains a model on sessions loaded with their truth; `progress` sees every
 /// batch. The sessions' paths are recorded in the model's training metadata.
 pub fn fit_sessions(
@@ -120,29 +176,6 @@ pub fn fit_sessions(
     if spec.schedule.is_empty() {
         bail!("the training schedule has no stages");
     }
-    let Some(first) = sessions.first() else { bail!("no sessions to train on") };
-    let files: Vec<&Path> = sessions.iter().map(|s| s.path.as_path()).collect();
-    let tactile_rate = first.rate_hz;
-    for s in sessions {
-        if (s.rate_hz - tactile_rate).abs() > 0.05 * tactile_rate {
-            bail!(
-                "{}: tactile rate {:.1} Hz differs from {:.1} Hz of {}",
-                s.path.display(),
-                s.rate_hz,
-                tactile_rate,
-                files[0].display()
-            );
-        }
-    }
-    let decimation = ((tactile_rate / spec.rate_hz).round() as usize).max(1);
-    let dt_s = decimation as f64 / tactile_rate;
-    let channels = spec.channels.names();
-    let measurement = spec.measurement;
-    let filter = DerivativeFilterConfig::default();
-    let prepared: Vec<Inputs> = sessions
-        .iter()
-        .map(|s| inputs(s, &channels, measurement, filter, decimation))
-        .collect::<Result<_>>()?;
     let cfg = TrainConfig {
         schedule: spec.schedule.clone(),
         batch_size: spec.batch.max(1),
@@ -152,29 +185,7 @@ pub fn fit_sessions(
         position_shift_cm: spec.position_shift_cm,
         ..TrainConfig::default()
     };
-    let meta = ModelMeta {
-        dt_s,
-        decimation,
-        tactile_rate_hz: tactile_rate,
-        channels: channels.clone(),
-        measurement,
-        derivative_filter: filter,
-        state_units: ["cm".into(), "cm/s".into()],
-        p0_diag: [0.1, 0.1],
-        training: json!({
-            "config": cfg,
-            "truth": spec.truth.topic(),
-            "channel_set": spec.channels.name(),
-            "sessions": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
-            "steps": prepared.iter().map(|p| p.times.len()).sum::<usize>(),
-        }),
-        software_version: env!("CARGO_PKG_VERSION").into(),
-    };
-    let mut model = DekfModel::new(meta, &mut rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed));
-    let (mean, std) = normalisation(&prepared.iter().collect::<Vec<_>>(), channels.len());
-    model.set_input_normalisation(&mean, &std);
-    let data = prepared.iter().map(|p| sequence(&model, p)).collect::<Result<Vec<_>>>()?;
-
+    let (mut model, data) = new_model(spec, &cfg, sessions)?;
     let started = std::time::Instant::now();
     // Up to 8 training sessions, evenly spaced, run whole from their start.
     let stride = sessions.len().div_ceil(SELECTION_SESSIONS).max(1);

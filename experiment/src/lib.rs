@@ -5,11 +5,12 @@ pub mod dataset;
 pub mod dekf_eval;
 pub mod dekf_run;
 pub mod dekf_train;
-#[cfg(all(feature = "devices", target_os = "linux"))]
-pub mod hw_rig;
+pub mod marker;
 pub mod observer;
 pub mod pipeline;
 pub mod plot;
+pub mod replay;
+pub mod rig;
 pub mod rig_config;
 pub mod study;
 pub mod tracking;

@@ -1,32 +1,18 @@
-//! Records everything a trial produces into its session, and detects the
-//! marker in each camera frame on the way.
+//! Records everything a trial produces into its session, with the marker
+//! detection of each camera frame on the way.
 
 use std::collections::BTreeMap;
 
 use anyhow::Result;
-use nalgebra::Point3;
-use slidetrack_calibration::{MarkerTracker, SlidingProjector, marker_pose};
 use slidetrack_control::{Baseline, ControlRecord, ObserverError, ProtocolEvent, Tare, TrialObserver};
-use slidetrack_core::{
-    CameraIntrinsics, DecoderCounters, Frame, PerFinger, SimTruth, TactileInfo, TactileSample, TimeNs,
-};
+use slidetrack_core::{DecoderCounters, Frame, PerFinger, SimTruth, TactileInfo, TactileSample, TimeNs};
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelHandle, ChannelMessage, CompressedImage, FingerSetpoint,
-    GraspControl, HandCommand, Logger, ProtocolEvent as EventMsg, Quaternion, SimTruth as TruthMsg,
-    TactileDecoder, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz,
+    GraspControl, HandCommand, Logger, ProtocolEvent as EventMsg, SimTruth as TruthMsg, TactileDecoder,
+    TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz,
 };
 
-/// The marker detection of a trial.
-pub struct MarkerTracking {
-    /// Finds the object's marker frame to frame.
-    pub tracker: MarkerTracker,
-    /// Side of the marker's black square (m).
-    pub marker_size_m: f64,
-    /// The camera's intrinsics.
-    pub intrinsics: CameraIntrinsics,
-    /// Marker position -> travel along the sliding axis, 0 at the first detection.
-    pub projector: SlidingProjector,
-}
+use crate::marker::MarkerSource;
 
 /// What a trial recorded, for the summary line.
 #[derive(Clone, Debug, Default)]
@@ -85,7 +71,7 @@ const DECODER_LOG_PERIOD_S: f64 = 1.0;
 pub struct SessionObserver<'a> {
     logger: Logger,
     ch: Channels,
-    marker: Option<MarkerTracking>,
+    marker: Option<Box<dyn MarkerSource + 'a>>,
     stats: TrialStats,
     progress: Box<dyn FnMut(TimeNs) + 'a>,
     /// When the decoder counters were last written, and what they were.
@@ -99,7 +85,7 @@ impl<'a> SessionObserver<'a> {
     pub fn new(
         logger: Logger,
         tactile: &TactileInfo,
-        camera: Option<MarkerTracking>,
+        camera: Option<Box<dyn MarkerSource + 'a>>,
         with_truth: bool,
         progress: Box<dyn FnMut(TimeNs) + 'a>,
     ) -> Result<SessionObserver<'a>> {
@@ -124,7 +110,7 @@ impl<'a> SessionObserver<'a> {
                 TimeNs::ZERO,
                 TimeNs::ZERO,
                 0,
-                &CameraCalibration::new(TimeNs::ZERO, "camera", &m.intrinsics),
+                &CameraCalibration::new(TimeNs::ZERO, "camera", m.intrinsics()),
             )?;
         }
         Ok(SessionObserver {
@@ -163,29 +149,6 @@ impl<'a> SessionObserver<'a> {
     fn log<T: ChannelMessage>(&self, ch: &ChannelHandle<T>, t: TimeNs, msg: &T) -> Result<(), ObserverError> {
         self.logger.log_json(ch, t, t, 0, msg)?;
         Ok(())
-    }
-
-    fn detect(&mut self, frame: &Frame) -> Result<ArucoDetection, ObserverError> {
-        let Some(m) = self.marker.as_mut() else { return Ok(ArucoDetection::missed()) };
-        let Some(image) = frame.pixels.as_ref() else { return Ok(ArucoDetection::missed()) };
-        let Some(found) = m.tracker.detect(image)? else { return Ok(ArucoDetection::missed()) };
-        let mut msg = ArucoDetection {
-            detected: true,
-            marker_id: Some(found.id),
-            corners_px: Some(found.corners_px),
-            ..ArucoDetection::missed()
-        };
-        // A detection whose pose cannot be solved is still a detection (corners),
-        // with no position.
-        if let Ok(pose) = marker_pose(&found, &m.intrinsics, m.marker_size_m) {
-            let t = pose.camera_from_marker.translation.vector;
-            let q = pose.camera_from_marker.rotation;
-            msg.position_in_camera_m = Some([t.x, t.y, t.z]);
-            msg.orientation_in_camera = Some(Quaternion { x: q.i, y: q.j, z: q.k, w: q.w });
-            msg.reprojection_error_px = Some(pose.reprojection_error_px);
-            msg.position_on_axis_m = m.projector.project(&Point3::from(t));
-        }
-        Ok(msg)
     }
 }
 
@@ -249,7 +212,10 @@ impl TrialObserver for SessionObserver<'_> {
     fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError> {
         self.stats.frames += 1;
         let seq = (frame.sequence & u64::from(u32::MAX)) as u32;
-        let detection = self.detect(&frame)?;
+        let detection = match self.marker.as_mut() {
+            Some(m) => m.detect(&frame)?,
+            None => ArucoDetection::missed(),
+        };
         if detection.detected {
             self.stats.detections += 1;
         }

@@ -1,18 +1,19 @@
 //! Data sets of simulated sessions for `demo` and `study`: trials collected
-//! in parallel (one trial per worker thread) and labelled with the ArUco
-//! ground truth.
+//! in parallel (one trial per worker thread, on a rayon pool) and labelled
+//! with the ArUco ground truth.
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result, bail};
+use rayon::prelude::*;
 use slidetrack_calibration::ground_truth::{AxisSource, default_params};
 use slidetrack_calibration::label::{LabelOptions, label_session};
 use slidetrack_sim::ObjectConfig;
 
+use crate::rig::TrialSpec;
 use crate::rig_config::RigConfig;
-use crate::trial::{TrialReport, TrialSpec, prepare_out_dir, run_sim_trial, session_file_name};
+use crate::trial::{TrialReport, prepare_out_dir, run_sim_trial, session_file_name};
 
 /// A set of simulated trials of one object.
 #[derive(Clone, Debug)]
@@ -29,7 +30,9 @@ pub struct DataSpec {
     pub camera: bool,
 }
 
-/// Runs `jobs` on `threads` named worker threads, each job once; results in job order.
+/// Runs `jobs` on a pool of `threads` worker threads named `name-K`, each
+/// job once; results in job order. After a failure or once `stop` is set, no
+/// new job starts (the running ones finish); the first error is returned.
 pub fn parallel<T: Send, J: Sync>(
     name: &str,
     jobs: &[J],
@@ -37,41 +40,41 @@ pub fn parallel<T: Send, J: Sync>(
     stop: &AtomicBool,
     work: impl Fn(&J) -> Result<T> + Sync,
 ) -> Result<Vec<T>> {
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Result<T>>>> = Mutex::new((0..jobs.len()).map(|_| None).collect());
-    let worker = || {
-        loop {
-            let i = next.fetch_add(1, Ordering::SeqCst);
-            if i >= jobs.len() || stop.load(Ordering::SeqCst) {
-                break;
-            }
-            let r = work(&jobs[i]);
-            let failed = r.is_err();
-            if let Ok(mut all) = results.lock() {
-                all[i] = Some(r);
-            }
-            if failed {
-                // Let the other workers finish their job, but start no new one.
-                next.store(jobs.len(), Ordering::SeqCst);
-            }
-        }
-    };
-    std::thread::scope(|scope| -> Result<()> {
-        for k in 0..threads.clamp(1, jobs.len().max(1)) {
-            std::thread::Builder::new()
-                .name(format!("{name}-{k}"))
-                .spawn_scoped(scope, worker)
-                .context("cannot start a worker thread")?;
-        }
-        Ok(())
-    })?;
-    let results = results.into_inner().map_err(|_| anyhow!("a {name} worker panicked"))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.clamp(1, jobs.len().max(1)))
+        .thread_name({
+            let name = name.to_string();
+            move |k| format!("{name}-{k}")
+        })
+        .build()
+        .context("cannot start the worker threads")?;
+    let failed = AtomicBool::new(false);
+    let results: Vec<Option<Result<T>>> = pool.install(|| {
+        jobs.par_iter()
+            .with_max_len(1)
+            .map(|job| {
+                if stop.load(Ordering::SeqCst) || failed.load(Ordering::SeqCst) {
+                    return None;
+                }
+                let r = work(job);
+                if r.is_err() {
+                    failed.store(true, Ordering::SeqCst);
+                }
+                Some(r)
+            })
+            .collect()
+    });
     let mut out = Vec::with_capacity(jobs.len());
+    let mut interrupted = false;
     for r in results {
         match r {
-            Some(r) => out.push(r?),
-            None => anyhow::bail!("{name}: interrupted"),
+            Some(Err(e)) => return Err(e),
+            Some(Ok(v)) => out.push(v),
+            None => interrupted = true,
         }
+    }
+    if interrupted {
+        bail!("{name}: interrupted");
     }
     Ok(out)
 }
@@ -136,5 +139,50 @@ pub fn threads(requested: usize) -> usize {
         requested
     } else {
         std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::AtomicUsize;
+
+    use super::*;
+
+    #[test]
+    fn results_come_in_job_order_on_named_threads() {
+        let jobs: Vec<u32> = (0..20).collect();
+        let out = parallel("square", &jobs, 3, &AtomicBool::new(false), |&j| {
+            let name = std::thread::current().name().unwrap_or_default().to_string();
+            assert!(name.starts_with("square-"), "{name}");
+            Ok(j * j)
+        })
+        .unwrap();
+        assert_eq!(out, jobs.iter().map(|j| j * j).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_failure_is_returned_and_stops_new_jobs() {
+        // On one worker the jobs run in order: none may start after job 3 fails.
+        let started = AtomicUsize::new(0);
+        let jobs: Vec<u32> = (0..20).collect();
+        let e = parallel("fail", &jobs, 1, &AtomicBool::new(false), |&j| {
+            started.fetch_add(1, Ordering::SeqCst);
+            if j == 3 { bail!("job {j} failed") } else { Ok(j) }
+        })
+        .unwrap_err();
+        assert_eq!(e.to_string(), "job 3 failed");
+        assert_eq!(started.load(Ordering::SeqCst), 4, "jobs kept starting after the failure");
+        // On several workers the failure comes back, whichever job fails.
+        let e = parallel("fail", &jobs, 3, &AtomicBool::new(false), |&j| {
+            if j == 17 { bail!("job {j} failed") } else { Ok(j) }
+        })
+        .unwrap_err();
+        assert_eq!(e.to_string(), "job 17 failed");
+    }
+
+    #[test]
+    fn a_stop_before_the_start_runs_nothing() {
+        let e = parallel("stopped", &[1, 2, 3], 2, &AtomicBool::new(true), |&j: &i32| Ok(j)).unwrap_err();
+        assert!(e.to_string().contains("interrupted"), "{e}");
     }
 }

@@ -12,24 +12,26 @@ use nalgebra::SVector;
 use slidetrack_control::{Baseline, ObserverError, ProtocolEvent};
 use slidetrack_core::{Frame, Phase, SimTruth, TimeNs};
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
-use slidetrack_estimators::dekf::{DekfModel, DekfTracker};
-use slidetrack_estimators::kf::{CovarianceUpdate, Gaussian, innovation, predict, update};
+use slidetrack_estimators::dekf::DekfModel;
+use slidetrack_estimators::kf::Gaussian;
+use slidetrack_estimators::metrics::RunningRms;
+use slidetrack_estimators::rts::{GatedKalmanFilter, Measurement, Transition};
 use slidetrack_session::{
     ArucoEstimate, ChannelHandle, DekfEstimate, Logger, SlidingEstimate, TactileDerivative,
 };
 
-use crate::dataset::channel_indices;
-use crate::dekf_run::{CM, estimate_message, estimate_metadata};
+use crate::dekf_run::{CM, DekfStage, estimate_message, estimate_metadata};
 use crate::observer::TrialExtension;
 use crate::vision_inhand::InHandVision;
 
 /// The causal half of the ground truth's filter: the constant-velocity model
 /// of eq. (6.13) on the marker position, predicted to each camera frame and
-/// corrected with the marker when it was found and passes the gate.
+/// corrected with the marker when it was found and passes the gate (the
+/// estimators' gated Kalman filter, as the ground truth's forward pass).
 pub struct MarkerFilter {
     params: CvSmootherParams,
-    /// Time (s) and belief after the last frame; `None` before the first detection.
-    last: Option<(f64, Gaussian<2>)>,
+    /// Time (s) and filter after the last frame; `None` before the first detection.
+    last: Option<(f64, GatedKalmanFilter<2>)>,
 }
 
 impl MarkerFilter {
@@ -43,59 +45,49 @@ impl MarkerFilter {
     /// the marker has been seen once.
     pub fn step(&mut self, t_s: f64, z_m: Option<f64>) -> Option<Gaussian<2>> {
         let z = z_m.filter(|z| z.is_finite());
-        let prior = match self.last {
+        let (transition, mut filter) = match self.last {
             None => {
                 z?;
-                self.params.initial()
+                let filter = GatedKalmanFilter::new(self.params.initial()).with_gate(self.params.gate);
+                (Transition::identity(), filter)
             }
-            Some((t0, belief)) => {
+            Some((t0, filter)) => {
                 let dt = (t_s - t0).max(0.0);
-                predict(&belief, &CvSmootherParams::F(dt), &self.params.Q(dt))
+                (Transition { F: CvSmootherParams::F(dt), Q: self.params.Q(dt) }, filter)
             }
         };
-        let posterior = z.map_or(prior, |z| self.correct(&prior, z));
-        self.last = Some((t_s, posterior));
-        Some(posterior)
-    }
-
-    fn correct(&self, prior: &Gaussian<2>, z: f64) -> Gaussian<2> {
-        let z = SVector::<f64, 1>::new(z);
         let (H, R) = (CvSmootherParams::H(), self.params.R());
-        if let (Some(gate), Ok(innov)) = (self.params.gate, innovation(prior, &z, &H, &R))
-            && innov.mahalanobis2 > gate.max_mahalanobis2
-        {
-            return *prior;
+        let measurement = z.map(|z| Measurement { z: SVector::<f64, 1>::new(z), H, R });
+        if filter.step(transition, measurement.as_ref()).is_err() {
+            // A singular innovation: the frame only predicts.
+            let _ = filter.step::<1>(transition, None);
         }
-        update(prior, &z, &H, &R, CovarianceUpdate::Joseph).map_or(*prior, |(post, _)| post)
+        self.last = Some((t_s, filter));
+        Some(*filter.belief())
     }
 }
 
-/// Squared errors accumulated against the simulator's truth.
+/// Errors accumulated against the simulator's truth.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ErrorSums {
-    /// Steps compared.
-    pub n: usize,
-    /// Sum of squared position errors (cm^2).
-    pub position: f64,
-    /// Sum of squared velocity errors ((cm/s)^2).
-    pub velocity: f64,
-    /// Sum of squared truth positions: the zero-motion baseline (cm^2).
-    pub baseline: f64,
+    /// Position errors (cm).
+    pub position: RunningRms,
+    /// Velocity errors (cm/s).
+    pub velocity: RunningRms,
+    /// Truth positions: the zero-motion baseline's errors (cm).
+    pub baseline: RunningRms,
 }
 
 impl ErrorSums {
     fn add(&mut self, estimate: [f64; 2], truth: [f64; 2]) {
-        self.n += 1;
-        self.position += (estimate[0] - truth[0]).powi(2);
-        self.velocity += (estimate[1] - truth[1]).powi(2);
-        self.baseline += truth[0] * truth[0];
+        self.position.add(estimate[0] - truth[0]);
+        self.velocity.add(estimate[1] - truth[1]);
+        self.baseline.add(truth[0]);
     }
 
     /// `(position RMSE cm, velocity RMSE cm/s, baseline position RMSE cm)`.
     pub fn rmse(&self) -> Option<[f64; 3]> {
-        let n = self.n as f64;
-        (self.n > 0)
-            .then(|| [(self.position / n).sqrt(), (self.velocity / n).sqrt(), (self.baseline / n).sqrt()])
+        Some([self.position.rms()?, self.velocity.rms()?, self.baseline.rms()?])
     }
 }
 
@@ -128,9 +120,7 @@ const DRAW_PERIOD_S: f64 = 0.1;
 /// The dEKF and the marker filter as a [`TrialExtension`].
 pub struct LiveTrackers {
     logger: Logger,
-    dekf: DekfTracker,
-    channels: Vec<usize>,
-    values: Vec<f64>,
+    dekf: DekfStage,
     derivative_ch: ChannelHandle<TactileDerivative>,
     dekf_ch: ChannelHandle<DekfEstimate>,
     marker: Option<(MarkerFilter, ChannelHandle<ArucoEstimate>)>,
@@ -174,12 +164,9 @@ impl LiveTrackers {
             }
             None => None,
         };
-        let channels = channel_indices(&model.meta.channels)?;
         Ok(LiveTrackers {
             logger: logger.clone(),
-            dekf: DekfTracker::new(model),
-            values: vec![0.0; channels.len()],
-            channels,
+            dekf: DekfStage::new(model)?,
             derivative_ch: logger.register::<TactileDerivative>(derivative_meta)?,
             dekf_ch: logger.register::<DekfEstimate>(estimate_meta)?,
             marker,
@@ -262,10 +249,7 @@ impl LiveTrackers {
 
 impl TrialExtension for LiveTrackers {
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
-        for (v, &i) in self.values.iter_mut().zip(&self.channels) {
-            *v = zeroed[i / 3][i % 3];
-        }
-        let Some(out) = self.dekf.on_scan(t.as_secs_f64(), &self.values) else { return Ok(()) };
+        let Some(out) = self.dekf.on_scan(t, zeroed.as_flattened().try_into()?) else { return Ok(()) };
         let msg = TactileDerivative { values: out.measurement.clone() };
         self.logger.log_json(&self.derivative_ch, t, t, 0, &msg)?;
         self.logger.log_json(&self.dekf_ch, t, t, 0, &estimate_message(&out))?;

@@ -1,53 +1,17 @@
-//! One trial on the simulated rig, recorded to one session file.
+//! One trial on a rig (simulated, real or replayed), recorded to one session file.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Instant, SystemTime};
 
-use anyhow::{Context, Result, bail};
-use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
-use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig, TrialOutcome, run_trial};
-use slidetrack_core::{
-    Camera, CameraIntrinsics, Clock, SimClock, TactileInfo, TactileSource, TimeNs, WallClock,
-};
+use anyhow::{Context, Result};
+use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, TrialOutcome, run_trial};
+use slidetrack_core::TimeNs;
 use slidetrack_session::{Logger, Recorder, RecorderOptions, SessionMetadata};
-use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{ObjectConfig, SimCamera, SimDevices, Stream, sliding_episodes, stream_seed};
+use slidetrack_sim::sliding_episodes;
 
-use crate::observer::{MarkerTracking, SessionObserver, TrialExtension, TrialStats};
-use crate::rig_config::RigConfig;
-
-/// Which rig runs a trial.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RigKind {
-    /// The simulated rig (physics model of the hand, object and sensors).
-    Sim,
-    /// The real rig, with the devices of the rig configuration's `[hw]` table.
-    Hw,
-}
-
-/// What to run.
-pub struct TrialSpec<'a> {
-    /// The rig.
-    pub rig: &'a RigConfig,
-    /// The object.
-    pub object: &'a ObjectConfig,
-    /// Seed of the simulated rig.
-    pub seed: u64,
-    /// Trial number.
-    pub trial: u32,
-    /// Duration of the sliding cycles (s).
-    pub duration_s: f64,
-    /// Render, detect and record the camera.
-    pub camera: bool,
-    /// Run on wall-clock time.
-    pub realtime: bool,
-    /// Replace an existing session file.
-    pub overwrite: bool,
-    /// Session file to write.
-    pub path: PathBuf,
-}
+use crate::observer::{SessionObserver, TrialExtension, TrialStats};
+use crate::rig::{RigKind, RigSetup, TrialSpec, build_rig};
 
 /// How a trial went.
 pub struct TrialReport {
@@ -110,95 +74,9 @@ fn rfc3339_now() -> String {
     humantime::format_rfc3339_seconds(SystemTime::now()).to_string()
 }
 
-/// A rig ready to run, with what the recorder needs to know about it.
-pub struct RigSetup {
-    /// The devices.
-    pub rig: Rig,
-    /// Facts about the tactile source, for the taxel layout.
-    pub tactile_info: TactileInfo,
-    /// Marker detection on the camera's frames, when there is a camera.
-    pub tracking: Option<MarkerTracking>,
-    /// `sim`, or the name of the real rig.
-    pub rig_name: String,
-}
-
-/// The simulated rig of `spec`'s trial, with its camera when asked for.
-pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
-    let clock: Arc<dyn Clock> =
-        if spec.realtime { Arc::new(WallClock::start()) } else { Arc::new(SimClock::new()) };
-    let object = spec.object;
-    let sim = SimDevices::new(&spec.rig.sim, object, spec.seed, spec.trial, clock.clone());
-    let tactile_info = sim.tactile.info();
-    let geometry = &spec.rig.geometry;
-    let (camera, tracking) = if spec.camera {
-        let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
-            .context("cannot make the marker for the simulated camera")?;
-        let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
-        let renderer =
-            SimCameraRenderer::new(spec.rig.camera.clone(), object.appearance.clone(), marker, seed)
-                .context("cannot set up the simulated camera")?;
-        let camera = SimCamera::new(
-            sim.world.clone(),
-            renderer,
-            geometry.object_start_in_hand_m,
-            geometry.sliding_axis_in_hand,
-        )?;
-        // libjpeg-turbo through OpenCV: several times faster than the built-in encoder.
-        let quality = camera.jpeg_quality();
-        let camera = camera.with_encoder(Box::new(move |image| match encode_jpeg(image, quality) {
-            Ok(encoded) => Some(encoded),
-            Err(e) => {
-                tracing::warn!("sim camera: {e}");
-                None
-            }
-        }));
-        let tracking = marker_tracking(spec, camera.hand_from_camera(), camera.intrinsics())?;
-        (Some(Box::new(camera) as Box<dyn Camera>), Some(tracking))
-    } else {
-        (None, None)
-    };
-    let rig = Rig {
-        tactile: Box::new(sim.tactile),
-        hand: Box::new(sim.hand),
-        camera,
-        clock,
-        truth: Some(Box::new(sim.truth)),
-    };
-    Ok(RigSetup { rig, tactile_info, tracking, rig_name: "sim".into() })
-}
-
-/// Marker detection for a camera at `hand_from_camera` with `intrinsics`.
-pub fn marker_tracking(
-    spec: &TrialSpec,
-    hand_from_camera: nalgebra::Isometry3<f64>,
-    intrinsics: &CameraIntrinsics,
-) -> Result<MarkerTracking> {
-    let axis = SlidingAxis::new(hand_from_camera, spec.rig.geometry.sliding_axis_in_hand.into())?;
-    Ok(MarkerTracking {
-        tracker: MarkerTracker::new(Dictionary::from_name(&spec.rig.marker.dictionary)?, spec.rig.marker.id)?,
-        marker_size_m: spec.object.appearance.marker_size_m,
-        intrinsics: intrinsics.clone(),
-        projector: axis.projector(),
-    })
-}
-
-/// The rig of `spec`, simulated or real, once it is clear that its session
-/// file may be written.
-pub fn build_rig(kind: RigKind, spec: &TrialSpec) -> Result<RigSetup> {
-    if spec.path.exists() && !spec.overwrite {
-        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
-    }
-    match kind {
-        RigKind::Sim => build_sim_rig(spec),
-        #[cfg(all(feature = "devices", target_os = "linux"))]
-        RigKind::Hw => crate::hw_rig::build_hw_rig(spec),
-        #[cfg(not(all(feature = "devices", target_os = "linux")))]
-        RigKind::Hw => bail!(
-            "--rig hw needs the real devices' backends, and this slidetrack was built without them \
-             (the `devices` feature, Linux only)"
-        ),
-    }
-}
+/// Key of the session metadata holding the duration of the sliding cycles
+/// (s), which a replay needs to run the protocol as it ran.
+pub const CYCLES_DURATION_KEY: &str = "cycles_duration_s";
 
 /// Runs one trial of the simulated rig and records it to `spec.path`.
 pub fn run_sim_trial(
@@ -235,7 +113,7 @@ pub fn record_trial_with<'a>(
     extension: Option<ExtensionFactory<'a>>,
 ) -> Result<TrialReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, tracking, rig_name } = setup;
+    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata } = setup;
     let object = spec.object;
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),
@@ -248,10 +126,13 @@ pub fn record_trial_with<'a>(
         started_at: rfc3339_now(),
     };
     let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
-    let recorder = Recorder::create_with_options(&spec.path, metadata.to_map(), options)?;
+    let mut metadata = metadata.to_map();
+    metadata.insert(CYCLES_DURATION_KEY.into(), spec.duration_s.to_string());
+    metadata.extend(extra_metadata);
+    let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
     let with_truth = rig.truth.is_some();
     let mut observer =
-        SessionObserver::new(recorder.logger(), &tactile_info, tracking, with_truth, Box::new(progress))?;
+        SessionObserver::new(recorder.logger(), &tactile_info, markers, with_truth, Box::new(progress))?;
     if let Some(make) = extension {
         observer = observer.with_extension(make(&recorder.logger())?);
     }

@@ -4,7 +4,6 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use slidetrack_experiment::trial::RigKind;
 use slidetrack_vision::TrackerKind;
 
 /// Which rig runs the trial, on the command line.
@@ -14,15 +13,9 @@ pub enum RigArg {
     Sim,
     /// The real rig, with the devices of the rig configuration.
     Hw,
-}
-
-impl From<RigArg> for RigKind {
-    fn from(r: RigArg) -> RigKind {
-        match r {
-            RigArg::Sim => RigKind::Sim,
-            RigArg::Hw => RigKind::Hw,
-        }
-    }
+    /// A recorded session (`--session`) played back through the same driver
+    /// traits: the trackers run on it exactly as they ran live.
+    Replay,
 }
 
 /// The experiment to run: rig, object, duration and how (`collect`, `track`).
@@ -52,6 +45,11 @@ pub struct ExperimentArgs {
     /// Replace session files that already exist (refused otherwise).
     #[arg(long)]
     pub overwrite: bool,
+    /// With `--rig replay`: the recorded session to play back (its rig
+    /// configuration, object, seed and trial replace `--config`, `--object`,
+    /// `--seed` and `--trial`).
+    #[arg(long, value_name = "FILE")]
+    pub session: Option<PathBuf>,
 }
 
 /// Arguments of `collect`.

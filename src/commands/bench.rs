@@ -6,8 +6,9 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result};
 use serde_json::json;
+use slidetrack_experiment::rig::TrialSpec;
 use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_experiment::trial::{TrialSpec, run_sim_trial};
+use slidetrack_experiment::trial::run_sim_trial;
 use slidetrack_sim::ObjectConfig;
 
 use crate::cli::{BenchArgs, BenchWhat};

@@ -15,8 +15,9 @@ use slidetrack_estimators::dekf::{DekfModel, DekfTracker, Measurement, ModelMeta
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
 use slidetrack_experiment::dataset::{ChannelSet, TruthSource, load};
 use slidetrack_experiment::dekf_train::TrainSpec;
+use slidetrack_experiment::rig::TrialSpec;
 use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_experiment::trial::{TrialSpec, run_sim_trial, session_file_name};
+use slidetrack_experiment::trial::{run_sim_trial, session_file_name};
 use slidetrack_sim::ObjectConfig;
 
 /// Target time of one online step (s).

@@ -5,13 +5,12 @@ use std::sync::atomic::Ordering;
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_control::AbortReason;
+use slidetrack_experiment::rig::{RigKind, TrialSpec, build_rig};
 use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_experiment::trial::{
-    TrialReport, TrialSpec, build_rig, prepare_out_dir, record_trial, session_file_name,
-};
+use slidetrack_experiment::trial::{TrialReport, prepare_out_dir, record_trial, session_file_name};
 use slidetrack_sim::ObjectConfig;
 
-use crate::cli::CollectArgs;
+use crate::cli::{CollectArgs, RigArg};
 
 /// Expected length of a trial beyond its cycles: zeroing, closing, ramp,
 /// settle and release (s), for the progress bar.
@@ -33,6 +32,14 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
     if args.trials == 0 {
         bail!("--trials must be at least 1");
     }
+    let kind = match args.run.rig {
+        RigArg::Sim => RigKind::Sim,
+        RigArg::Hw => RigKind::Hw,
+        RigArg::Replay => bail!(
+            "collect records new trials; to run the trackers on a recorded session use \
+             `slidetrack track --rig replay --session FILE` (or `slidetrack replay`)"
+        ),
+    };
     let object = ObjectConfig::load(&args.run.object)?;
     let rig = RigConfig::load(args.run.config.as_deref())?;
     prepare_out_dir(&args.out)?;
@@ -65,7 +72,7 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
         let mut progress = |t: slidetrack_core::TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
         };
-        let report = record_trial(build_rig(args.run.rig.into(), &spec)?, &spec, &stop, &mut progress)?;
+        let report = record_trial(build_rig(kind, &spec)?, &spec, &stop, &mut progress)?;
         bar.suspend(|| println!("{}", report.summary_line()));
         if let Some(counters) = report.stats.decoder {
             bar.suspend(|| println!("  tactile decoder: {counters}"));

@@ -12,8 +12,9 @@ use slidetrack_experiment::dekf_eval::{evaluate, table};
 use slidetrack_experiment::dekf_run::{save_model, write_atomically};
 use slidetrack_experiment::dekf_train::TrainSpec;
 use slidetrack_experiment::pipeline::{DataSpec, collect, label, threads};
+use slidetrack_experiment::plot::dekf::plot_training_curve;
 
-use super::train::{fit_with_progress, plot_training_curve};
+use super::train::fit_with_progress;
 use crate::cli::{DemoArgs, PlotArgs, PlotKind, ReplayArgs};
 
 pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
@@ -74,12 +75,22 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     write_atomically(&args.out.join("eval.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
 
     step("plots");
-    let first_test = &test[0];
-    let replayed = args.out.join("replay.mcap");
+    plots(args, &test[0], model_path)?;
+    println!("{}", args.out.join("training-curve.png").display());
+    println!("\ndone in {:.0} s; everything is in {}", started.elapsed().as_secs_f64(), args.out.display());
+    println!(
+        "next: `slidetrack track --model {} --vision roft` runs the trackers live; `slidetrack study --quick` the thesis's tables",
+        args.out.join("box-xy.safetensors").display()
+    );
+    Ok(())
+}
+
+/// The replay of the first held-out session and the plots of Figs. 6.4, 6.5, 6.8 and 6.9.
+fn plots(args: &DemoArgs, first_test: &std::path::Path, model_path: std::path::PathBuf) -> Result<()> {
     super::replay::run_cmd(&ReplayArgs {
-        file: first_test.clone(),
+        file: first_test.to_path_buf(),
         model: model_path,
-        out: replayed,
+        out: args.out.join("replay.mcap"),
         plot: Some(args.out.join("replay.png")),
         overwrite: true,
     })?;
@@ -89,13 +100,7 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
         (PlotKind::GroundTruth, "ground-truth.png"),
     ] {
         let out = args.out.join(name);
-        super::plot::run(&PlotArgs { file: first_test.clone(), out, what: kind, recover: false })?;
+        super::plot::run(&PlotArgs { file: first_test.to_path_buf(), out, what: kind, recover: false })?;
     }
-    println!("{}", args.out.join("training-curve.png").display());
-    println!("\ndone in {:.0} s; everything is in {}", started.elapsed().as_secs_f64(), args.out.display());
-    println!(
-        "next: `slidetrack track --model {} --vision roft` runs the trackers live; `slidetrack study --quick` the thesis's tables",
-        args.out.join("box-xy.safetensors").display()
-    );
     Ok(())
 }

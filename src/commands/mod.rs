@@ -15,7 +15,6 @@ mod info;
 mod label;
 mod objects;
 mod plot;
-mod plot_ground_truth;
 pub mod replay;
 pub mod study;
 pub mod track;

@@ -1,6 +1,7 @@
 //! `slidetrack track`: the controlled-sliding experiment with the dEKF live
 //! on every tactile scan and a causal Kalman filter on the marker, recorded
-//! to one session and shown in the terminal.
+//! to one session and shown in the terminal; on the replay rig, the same on a
+//! recorded session.
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -8,12 +9,13 @@ use std::sync::{Arc, Mutex};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_calibration::ground_truth::default_params;
+use slidetrack_estimators::dekf::DekfModel;
 use slidetrack_experiment::dekf_run::load_model;
+use slidetrack_experiment::replay::{ReplayOptions, ReplaySession, check_rate};
+use slidetrack_experiment::rig::{RigKind, RigSetup, TrialSpec, build_rig};
 use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_experiment::tracking::{LiveStatus, LiveTrackers};
-use slidetrack_experiment::trial::{
-    ExtensionFactory, TrialSpec, build_rig, prepare_out_dir, record_trial_with,
-};
+use slidetrack_experiment::trial::{ExtensionFactory, prepare_out_dir, record_trial_with};
 use slidetrack_experiment::vision_inhand::{InHandVision, InHandVisionConfig};
 use slidetrack_sim::ObjectConfig;
 use slidetrack_vision::TrackerKind;
@@ -26,20 +28,24 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     }
     if args.vision.is_some() && (args.run.rig == RigArg::Hw || args.run.no_camera) {
         bail!(
-            "--vision runs on the simulated rig's rendered RGB-D scene: it needs --rig sim and the camera \
-             (live RGB-D from a real rig needs a segmentation and pose network; see `slidetrack vision track`)"
+            "--vision runs on the simulated rig's rendered RGB-D scene: it needs --rig sim (or a replay of a \
+             simulated session) and the camera (live RGB-D from a real rig needs a segmentation and pose \
+             network; see `slidetrack vision track`)"
         );
     }
     let model = load_model(&args.model)?;
+    let kind = match args.run.rig {
+        RigArg::Replay => return replay(args, &model, quiet),
+        RigArg::Sim => RigKind::Sim,
+        RigArg::Hw => RigKind::Hw,
+    };
     let object = ObjectConfig::load(&args.run.object)?;
     let rig = RigConfig::load(args.run.config.as_deref())?;
     let path = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("sessions")
             .join(format!("{}-s{}-t{:03}-track.mcap", object.name, args.run.seed, args.trial))
     });
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        prepare_out_dir(dir)?;
-    }
+    prepare_parent(&path)?;
     let spec = TrialSpec {
         rig: &rig,
         object: &object,
@@ -51,7 +57,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         overwrite: args.run.overwrite,
         path,
     };
-    let setup = build_rig(args.run.rig.into(), &spec)?;
+    let setup = build_rig(kind, &spec)?;
     let rate = setup.tactile_info.rate_hz;
     let expected = model.meta.tactile_rate_hz;
     if (rate - expected).abs() > 0.05 * expected {
@@ -60,7 +66,58 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
             args.model.display()
         );
     }
+    track_on(args, model, setup, &spec, quiet)
+}
 
+/// `track --rig replay`: the trackers on a replay of `--session`.
+fn replay(args: &TrackArgs, model: &DekfModel, quiet: bool) -> Result<()> {
+    let Some(input) = args.run.session.as_ref() else {
+        bail!("--rig replay needs --session FILE, the recorded session to replay");
+    };
+    let session = ReplaySession::open(input)?;
+    check_rate(&session, model)?;
+    if args.vision.is_some() && !session.has_truth {
+        bail!(
+            "{}: --vision on a replay renders the in-hand scene from the recorded /sim/truth, which this \
+             session does not have",
+            input.display()
+        );
+    }
+    let path = args.out.clone().unwrap_or_else(|| {
+        let stem = input.file_stem().map_or("session".into(), |s| s.to_string_lossy().into_owned());
+        PathBuf::from("sessions").join(format!("{stem}-replay.mcap"))
+    });
+    if std::fs::canonicalize(input).ok() == std::fs::canonicalize(&path).ok() {
+        bail!("--out must differ from the replayed session {}", input.display());
+    }
+    prepare_parent(&path)?;
+    let mut spec = session.trial_spec(path, args.run.overwrite);
+    spec.camera &= !args.run.no_camera;
+    if spec.path.exists() && !spec.overwrite {
+        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
+    }
+    let setup = session.rig(ReplayOptions { camera: spec.camera, truth: true })?;
+    track_on(args, model.clone(), setup, &spec, quiet)
+}
+
+/// Creates the directory of `path` when it has one.
+fn prepare_parent(path: &std::path::Path) -> Result<()> {
+    match path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(dir) => prepare_out_dir(dir),
+        None => Ok(()),
+    }
+}
+
+/// Runs the trial of `spec` on `setup` with the trackers live, and prints
+/// their errors against the simulator's truth.
+fn track_on(
+    args: &TrackArgs,
+    model: DekfModel,
+    setup: RigSetup,
+    spec: &TrialSpec,
+    quiet: bool,
+) -> Result<()> {
+    let (rig, object) = (spec.rig, spec.object);
     let display = if quiet { ProgressBar::hidden() } else { ProgressBar::new_spinner() };
     display.set_style(
         ProgressStyle::with_template("{msg}").unwrap_or_else(|_| ProgressStyle::default_spinner()),
@@ -68,11 +125,11 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     display.enable_steady_tick(std::time::Duration::from_millis(100));
     let status = Arc::new(Mutex::new(LiveStatus::default()));
     let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    let with_marker = setup.tracking.is_some();
+    let with_marker = setup.markers.is_some();
     let vision = match args.vision {
         Some(kind) => {
             let g = &rig.geometry;
-            let config = InHandVisionConfig::new(kind.into(), args.run.seed ^ u64::from(args.trial));
+            let config = InHandVisionConfig::new(kind.into(), spec.seed ^ u64::from(spec.trial));
             Some(
                 InHandVision::new(
                     &config,
@@ -99,7 +156,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     });
     let stop = super::stop_flag();
     let mut progress = |_t: slidetrack_core::TimeNs| {};
-    let report = record_trial_with(setup, &spec, &stop, &mut progress, Some(extension))?;
+    let report = record_trial_with(setup, spec, &stop, &mut progress, Some(extension))?;
     display.finish_and_clear();
 
     println!("{}", report.summary_line());

@@ -1,14 +1,12 @@
 //! `slidetrack train`: fit a dEKF model to labelled sessions.
 
-use std::path::Path;
-
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use slidetrack_estimators::dekf::EpochReport;
 use slidetrack_experiment::dataset::{SessionData, expand, load};
 use slidetrack_experiment::dekf_run::save_model;
 use slidetrack_experiment::dekf_train::{TrainSpec, Trained, fit_sessions, parse_schedule};
+use slidetrack_experiment::plot::dekf::plot_training_curve;
 
 use crate::cli::TrainArgs;
 
@@ -104,26 +102,4 @@ pub fn run(args: &TrainArgs, quiet: bool) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// State RMSE per epoch (Fig. 6.6).
-pub fn plot_training_curve(epochs: &[EpochReport], out: &Path) -> Result<()> {
-    use slidetrack_experiment::plot::{PALETTE, Panel, Series, draw_stacked_x};
-    let pos: Vec<(f64, f64)> = epochs.iter().map(|e| (e.epoch as f64, e.rmse[0])).collect();
-    let vel: Vec<(f64, f64)> = epochs.iter().map(|e| (e.epoch as f64, e.rmse[1])).collect();
-    let whole: Vec<(f64, f64)> =
-        epochs.iter().filter_map(|e| e.selection_score.map(|s| (e.epoch as f64, s))).collect();
-    let mut position = vec![Series::line("training windows", PALETTE[0], pos)];
-    if !whole.is_empty() {
-        position.push(Series::line("whole training sessions (epoch selection)", PALETTE[3], whole));
-    }
-    let panels = [
-        Panel { title: "position RMSE on the training data".into(), y_label: "cm".into(), series: position },
-        Panel {
-            title: "velocity RMSE on the training data".into(),
-            y_label: "cm/s".into(),
-            series: vec![Series::line("velocity", PALETTE[1], vel)],
-        },
-    ];
-    draw_stacked_x(out, "dEKF training", "epoch", &panels)
 }

@@ -70,3 +70,29 @@ pub fn python() -> PathBuf {
     );
     python
 }
+
+/// Three short simulated sessions without camera, and a tiny model trained on
+/// the first two against the simulator's truth.
+pub fn trained(dir: &Path) -> (Vec<PathBuf>, PathBuf) {
+    let sessions: Vec<PathBuf> =
+        (0..3u64).map(|s| collect(dir, "box", 20 + s, 12.0, &["--no-camera"])).collect();
+    let model = dir.join("box.safetensors");
+    let (a, b) = (sessions[0].to_str().expect("utf-8 path"), sessions[1].to_str().expect("utf-8 path"));
+    ok(&[
+        "-q",
+        "train",
+        a,
+        b,
+        "--truth",
+        "sim",
+        "--channels",
+        "xy",
+        "--schedule",
+        "2:1,8:1",
+        "--threads",
+        "1",
+        "--out",
+        model.to_str().expect("utf-8 path"),
+    ]);
+    (sessions, model)
+}

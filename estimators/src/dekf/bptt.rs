@@ -89,6 +89,10 @@ fn with_tangents(means: &[[f64; 2]]) -> DMatrix<f32> {
 
 /// Runs the filter over `windows` for `length` steps and backpropagates the
 /// sum of squared state errors. Deterministic for given inputs.
+#[expect(
+    clippy::too_many_lines,
+    reason = "one function on purpose: the reverse pass mirrors the forward pass step by step over the same tape, and keeping both in view makes a mismatch visible (the finite-difference tests check them)"
+)]
 pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], length: usize) -> BatchGrad {
     let p = &model.params;
     let l = &model.layout;

@@ -4,8 +4,8 @@
 
 use super::ekf::{M2, correct, predict};
 use super::infer::FastNet;
-use super::model::{DekfModel, Measurement};
-use crate::derivative::DerivativeFilter;
+use super::input::DekfInput;
+use super::model::DekfModel;
 
 /// Smallest innovation variance `S` for which the filter corrects; below it
 /// the measurement carries no usable information and the step only predicts.
@@ -35,13 +35,10 @@ pub struct DekfTracker {
     Q: M2,
     R: f64,
     dt: f64,
-    decimation: usize,
-    kind: Measurement,
     norm_mean: Vec<f32>,
     norm_std: Vec<f32>,
     p0: [f64; 2],
-    derivative: DerivativeFilter,
-    scans: u64,
+    input: DekfInput,
     mean: [f64; 2],
     cov: M2,
     buf: Vec<f32>,
@@ -60,13 +57,10 @@ impl DekfTracker {
             Q: model.process_noise(),
             R: model.measurement_noise(),
             dt: model.meta.dt_s,
-            decimation: model.meta.decimation.max(1),
-            kind: model.meta.measurement,
             norm_mean: m.to_vec(),
             norm_std: s.to_vec(),
             p0,
-            derivative: DerivativeFilter::new(model.meta.derivative_filter, l.channels),
-            scans: 0,
+            input: DekfInput::for_model(model),
             mean: [0.0; 2],
             cov: [[p0[0], 0.0], [0.0, p0[1]]],
             buf: vec![0.0; l.channels],
@@ -85,18 +79,9 @@ impl DekfTracker {
     /// for that channel and, if a value the feature network reads is not
     /// finite, the dEKF only predicts.
     pub fn on_scan(&mut self, t_s: f64, zeroed: &[f64]) -> Option<DekfOutput> {
-        let derivatives = self.derivative.step(t_s, zeroed);
-        let measurement: Vec<f64> = match self.kind {
-            Measurement::Derivative => derivatives.to_vec(),
-            Measurement::Raw => zeroed.to_vec(),
-        };
-        let k = self.scans;
-        self.scans += 1;
-        if !k.is_multiple_of(self.decimation as u64) {
-            return None;
-        }
-        let corrected = if k == 0 { false } else { self.step(&measurement) };
-        Some(DekfOutput { t_s, measurement, mean: self.mean, cov: self.cov, corrected })
+        let step = self.input.on_scan(t_s, zeroed)?;
+        let corrected = if step.index == 0 { false } else { self.step(&step.measurement) };
+        Some(DekfOutput { t_s, measurement: step.measurement, mean: self.mean, cov: self.cov, corrected })
     }
 
     /// One dEKF step (prediction over `dt`, correction with `measurement`,
@@ -134,9 +119,7 @@ impl DekfTracker {
 
     /// Back to `mu0 = 0`, `P0`, with fresh derivative filters.
     pub fn reset(&mut self) {
-        let cfg = *self.derivative.config();
-        self.derivative = DerivativeFilter::new(cfg, self.buf.len());
-        self.scans = 0;
+        self.input.reset();
         self.mean = [0.0; 2];
         self.cov = [[self.p0[0], 0.0], [0.0, self.p0[1]]];
     }

@@ -7,6 +7,7 @@ pub mod ekf;
 pub mod file;
 mod filter;
 mod infer;
+mod input;
 pub mod mlp;
 mod model;
 pub mod params;
@@ -14,6 +15,7 @@ mod train;
 
 pub use bptt::{BatchGrad, Sequence, Window, batch_grad};
 pub use filter::{DekfOutput, DekfTracker, MIN_INNOVATION_VAR};
+pub use input::{DekfInput, InputStep};
 pub use model::{DekfModel, Measurement, ModelMeta};
 pub use train::{EpochReport, Progress, Selection, Stage, TrainConfig, train, train_with_selection};
 

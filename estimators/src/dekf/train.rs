@@ -162,6 +162,37 @@ fn parallel_grad(
     total
 }
 
+/// The windows of one batch: each starts from an initial state drawn around
+/// the truth at its start (eq. 2.148), shifted along the sliding axis by
+/// up to `cfg.position_shift_cm`.
+fn batch_windows(
+    chunk: &[(usize, usize)],
+    data: &[Sequence],
+    cfg: &TrainConfig,
+    p0: [f64; 2],
+    rng: &mut ChaCha8Rng,
+) -> Vec<Window> {
+    chunk
+        .iter()
+        .map(|&(sequence, start)| {
+            let truth = data[sequence].truth[start];
+            let n0: f64 = StandardNormal.sample(rng);
+            let n1: f64 = StandardNormal.sample(rng);
+            let shift = if cfg.position_shift_cm > 0.0 {
+                rng.random_range(-cfg.position_shift_cm..=cfg.position_shift_cm)
+            } else {
+                0.0
+            };
+            Window {
+                sequence,
+                start,
+                mean0: [truth[0] + shift + n0 * p0[0].sqrt(), truth[1] + n1 * p0[1].sqrt()],
+                position_shift: shift,
+            }
+        })
+        .collect()
+}
+
 /// Trains `model` on `data` (sequences at the filter rate, measurements
 /// already normalised with the model's normalisation). Calls `progress`
 /// after every batch; returns one report per epoch.
@@ -211,25 +242,7 @@ pub fn train_with_selection(
             let batches = windows.len().div_ceil(cfg.batch_size.max(1));
             let (mut sq, mut states, mut skipped) = ([0.0f64; 2], 0usize, 0usize);
             for (b, chunk) in windows.chunks(cfg.batch_size.max(1)).enumerate() {
-                let batch: Vec<Window> = chunk
-                    .iter()
-                    .map(|&(sequence, start)| {
-                        let truth = data[sequence].truth[start];
-                        let n0: f64 = StandardNormal.sample(&mut rng);
-                        let n1: f64 = StandardNormal.sample(&mut rng);
-                        let shift = if cfg.position_shift_cm > 0.0 {
-                            rng.random_range(-cfg.position_shift_cm..=cfg.position_shift_cm)
-                        } else {
-                            0.0
-                        };
-                        Window {
-                            sequence,
-                            start,
-                            mean0: [truth[0] + shift + n0 * p0[0].sqrt(), truth[1] + n1 * p0[1].sqrt()],
-                            position_shift: shift,
-                        }
-                    })
-                    .collect();
+                let batch = batch_windows(chunk, data, cfg, p0, &mut rng);
                 let mut g = parallel_grad(model, data, &batch, st.length, threads);
                 // Loss (2.149): mean over steps, batch and state components.
                 let scale = 1.0 / (st.length * batch.len() * 2) as f64;

@@ -145,6 +145,10 @@ impl Roft {
     }
 
     /// One frame (the loop body of the algorithm table, Sec. 5.4.7).
+    #[expect(
+        clippy::too_many_lines,
+        reason = "one function on purpose: it reads as the algorithm table of Sec. 5.4.7, line by line"
+    )]
     pub fn step(&mut self, input: RoftInput) -> Result<RoftReport, RoftError> {
         let RoftInput { t_ns, depth, flow, mask, pose } = input;
         let previous = self.history.back().map(|r| r.t_ns);

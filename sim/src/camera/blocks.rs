@@ -187,6 +187,10 @@ impl<'a, P: PlanarPattern, const C: usize> Resolved<'a, P, C> {
 /// the plane's outline grown by at least `block_size + kernel radius` pixels
 /// (or reach the image border there). `block_size` must be at least the
 /// kernel radius.
+#[expect(
+    clippy::too_many_lines,
+    reason = "one function on purpose: the block classification, the exact per-pixel fill and the blur share the block grid and its scratch buffers, and the test against exhaustive rendering covers them together"
+)]
 pub(super) fn draw_plane<P: PlanarPattern, const C: usize>(
     scene: &Scene<'_>,
     plane: &PlaneInCamera,

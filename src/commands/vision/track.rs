@@ -10,7 +10,7 @@ use slidetrack_estimators::metrics::SequenceMetrics;
 use slidetrack_session::{Recorder, RecorderOptions};
 use slidetrack_vision::eval::{Scored, TrackedFrame, score};
 use slidetrack_vision::record::EstimateChannels;
-use slidetrack_vision::{TrackerSettings, build_tracker};
+use slidetrack_vision::{TrackerKind, TrackerSettings, build_tracker};
 
 use super::inputs::{InputOptions, Prepared, prepare};
 use crate::cli::VisionTrackArgs as TrackArgs;
@@ -29,18 +29,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let kind = args.tracker.kind();
     let settings = TrackerSettings { initial_pose, ..TrackerSettings::default() };
     let mut tracker = build_tracker(kind, &model, &intrinsics, &settings)?;
-    let recorder = match &args.out {
-        Some(path) => {
-            let options = RecorderOptions { overwrite: args.overwrite, ..RecorderOptions::default() };
-            let mut metadata = BTreeMap::new();
-            metadata.insert("software_version".into(), env!("CARGO_PKG_VERSION").into());
-            metadata.insert("tracker".into(), kind.name().into());
-            metadata.insert("input".into(), args.input.display().to_string());
-            metadata.insert("model".into(), model.origin.clone());
-            Some(Recorder::create_with_options(path, metadata, options)?)
-        }
-        None => None,
-    };
+    let recorder = args.out.as_ref().map(|path| recorder(args, path, kind, &model.origin)).transpose()?;
     let channels = match &recorder {
         Some(r) => Some(EstimateChannels::register(&r.logger(), kind)?),
         None => None,
@@ -96,6 +85,18 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         .transpose()?;
     report(args, frames, tracked, fps, metrics.as_ref());
     Ok(())
+}
+
+/// The session for the estimates of `args`, with what produced them in its metadata.
+fn recorder(args: &TrackArgs, path: &std::path::Path, kind: TrackerKind, model: &str) -> Result<Recorder> {
+    let options = RecorderOptions { overwrite: args.overwrite, ..RecorderOptions::default() };
+    let metadata = BTreeMap::from([
+        ("software_version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+        ("tracker".to_string(), kind.name().to_string()),
+        ("input".to_string(), args.input.display().to_string()),
+        ("model".to_string(), model.to_string()),
+    ]);
+    Ok(Recorder::create_with_options(path, metadata, options)?)
 }
 
 fn report(args: &TrackArgs, frames: usize, tracked: usize, fps: f64, metrics: Option<&SequenceMetrics>) {

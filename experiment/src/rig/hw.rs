@@ -18,9 +18,10 @@ use slidetrack_drivers::config::{
 };
 use slidetrack_drivers::{CanHand, CanTactile, EmulatedSerialTactile, SerialTactile, V4l2Camera};
 use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{SimCamera, SimDevices, Stream, stream_seed};
+use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, Stream, stream_seed};
 
-use crate::trial::{RigSetup, TrialSpec, marker_tracking};
+use super::{RigSetup, TrialSpec, marker_tracking};
+use crate::marker::MarkerSource;
 
 /// A one-line description of the devices, for the log.
 pub fn describe(hw: &HwRigConfig) -> String {
@@ -40,6 +41,9 @@ pub fn describe(hw: &HwRigConfig) -> String {
     };
     format!("rig {}: tactile {tactile}, camera {camera}, hand {hand}", hw.name)
 }
+
+/// The marker detection of a camera, when there is one.
+type Markers = Option<Box<dyn MarkerSource>>;
 
 /// A camera whose slow set-up (marker, renderer, calibration) is done.
 enum PreparedCamera {
@@ -66,20 +70,7 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
             "hw.tactile port = \"emulated\" needs hw.hand kind = \"sim\": the emulated sensors feel the simulated hand"
         );
     }
-    let (prepared, tracking) = match (&hw.camera, spec.camera) {
-        (CameraDevice::None, _) | (_, false) => (None, None),
-        (CameraDevice::Sim, true) => {
-            let renderer = sim_renderer(spec)?;
-            let tracking = marker_tracking(spec, *renderer.hand_from_camera(), renderer.intrinsics())?;
-            (Some(PreparedCamera::Sim(Box::new(renderer))), Some(tracking))
-        }
-        (CameraDevice::V4l2(v), true) => {
-            let intrinsics = v4l2_intrinsics(v)?;
-            let hand_from_camera = v.placement.hand_from_camera().context("hw.camera.placement")?;
-            let tracking = marker_tracking(spec, hand_from_camera, &intrinsics)?;
-            (Some(PreparedCamera::V4l2(v.clone(), intrinsics)), Some(tracking))
-        }
-    };
+    let (prepared, markers) = prepare_camera(spec, &hw.camera)?;
 
     let clock: Arc<dyn Clock> = Arc::new(WallClock::start());
     let needs_world = matches!(hw.tactile, TactileDevice::Sim)
@@ -97,24 +88,7 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
         (HandDevice::Can(c), _) => Box::new(CanHand::open(c)?),
         (HandDevice::Sim, None) => bail!("internal: the simulated hand was not built"),
     };
-    let camera: Option<Box<dyn Camera>> = match (prepared, &world) {
-        (None, _) => None,
-        (Some(PreparedCamera::Sim(renderer)), Some(world)) => {
-            let g = &spec.rig.geometry;
-            let camera = SimCamera::new(
-                Arc::clone(world),
-                *renderer,
-                g.object_start_in_hand_m,
-                g.sliding_axis_in_hand,
-            )?;
-            let quality = camera.jpeg_quality();
-            Some(Box::new(camera.with_encoder(Box::new(move |image| encode_jpeg(image, quality).ok()))))
-        }
-        (Some(PreparedCamera::Sim(_)), None) => bail!("internal: the simulated world was not built"),
-        (Some(PreparedCamera::V4l2(v, intrinsics)), _) => {
-            Some(Box::new(V4l2Camera::open(&v, intrinsics, Arc::clone(&clock))?))
-        }
-    };
+    let camera = open_camera(spec, prepared, world.as_ref(), &clock)?;
     let sim_rate = spec.rig.sim.tactile_rate_hz;
     let mut truth: Option<Box<dyn TruthSource>> = None;
     let tactile: Box<dyn TactileSource> = match (&hw.tactile, sim_tactile) {
@@ -137,7 +111,57 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
     }
     let tactile_info = tactile.info();
     let rig = Rig { tactile, hand, camera, clock, truth };
-    Ok(RigSetup { rig, tactile_info, tracking, rig_name: hw.name.clone() })
+    let extra_metadata = std::collections::BTreeMap::new();
+    Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata })
+}
+
+/// The slow set-up of the camera (marker, renderer, calibration) and its
+/// marker detection, before any device opens.
+fn prepare_camera(spec: &TrialSpec, camera: &CameraDevice) -> Result<(Option<PreparedCamera>, Markers)> {
+    Ok(match (camera, spec.camera) {
+        (CameraDevice::None, _) | (_, false) => (None, None),
+        (CameraDevice::Sim, true) => {
+            let renderer = sim_renderer(spec)?;
+            let markers = marker_tracking(spec, *renderer.hand_from_camera(), renderer.intrinsics())?;
+            (Some(PreparedCamera::Sim(Box::new(renderer))), Some(Box::new(markers) as Box<dyn MarkerSource>))
+        }
+        (CameraDevice::V4l2(v), true) => {
+            let intrinsics = v4l2_intrinsics(v)?;
+            let hand_from_camera = v.placement.hand_from_camera().context("hw.camera.placement")?;
+            let markers = marker_tracking(spec, hand_from_camera, &intrinsics)?;
+            (
+                Some(PreparedCamera::V4l2(v.clone(), intrinsics)),
+                Some(Box::new(markers) as Box<dyn MarkerSource>),
+            )
+        }
+    })
+}
+
+/// Opens the prepared camera: the simulated one on `world`, or the V4L2 device.
+fn open_camera(
+    spec: &TrialSpec,
+    prepared: Option<PreparedCamera>,
+    world: Option<&SharedWorld>,
+    clock: &Arc<dyn Clock>,
+) -> Result<Option<Box<dyn Camera>>> {
+    Ok(match (prepared, world) {
+        (None, _) => None,
+        (Some(PreparedCamera::Sim(renderer)), Some(world)) => {
+            let g = &spec.rig.geometry;
+            let camera = SimCamera::new(
+                Arc::clone(world),
+                *renderer,
+                g.object_start_in_hand_m,
+                g.sliding_axis_in_hand,
+            )?;
+            let quality = camera.jpeg_quality();
+            Some(Box::new(camera.with_encoder(Box::new(move |image| encode_jpeg(image, quality).ok()))))
+        }
+        (Some(PreparedCamera::Sim(_)), None) => bail!("internal: the simulated world was not built"),
+        (Some(PreparedCamera::V4l2(v, intrinsics)), _) => {
+            Some(Box::new(V4l2Camera::open(&v, intrinsics, Arc::clone(clock))?))
+        }
+    })
 }
 
 /// The simulated camera's renderer (the marker comes from OpenCV's dictionaries).
@@ -192,7 +216,7 @@ mod tests {
 
     #[test]
     fn the_readme_hardware_example_is_a_valid_rig_config() {
-        let readme = include_str!("../../README.md");
+        let readme = include_str!("../../../README.md");
         let section = readme.find("## Hardware").expect("a Hardware section");
         let start = section + readme[section..].find("```toml\n").expect("a toml block") + 8;
         let end = start + readme[start..].find("```").expect("closed block");

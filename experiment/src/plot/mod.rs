@@ -1,5 +1,9 @@
 //! Line plots of session channels, drawn with plotters into PNG files.
 
+pub mod dekf;
+pub mod ground_truth;
+pub mod session;
+
 use std::path::Path;
 use std::sync::OnceLock;
 

@@ -1,0 +1,345 @@
+//! The replay rig: a recorded session played back through the same driver
+//! traits as the live rigs, on a clock driven by the recording's log times
+//! (as copper-rs's resim does), so that everything downstream of the devices
+//! (the protocol, the observers, the online estimators) runs on a recording
+//! exactly as it ran live.
+//!
+//! - `/tactile/raw` is the tactile source; each scan moves the clock to its
+//!   log time. The protocol runs again on these scans and computes the same
+//!   baseline, zeroed channels, control ticks and commands as live.
+//! - `/camera/image` is the camera (the recorded bytes, not decoded) and
+//!   `/aruco/detections` the marker source: the marker filter sees the
+//!   detections the recording saw.
+//! - `/sim/truth` is the simulator's truth, when the session has it.
+//! - The hand takes commands and moves nothing.
+//!
+//! A replay is as deterministic as the code it runs: `track --rig replay` on
+//! a session recorded by `track` gives the same estimates, message for message.
+
+mod devices;
+mod stream;
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use anyhow::{Context, Result, bail};
+use slidetrack_control::{
+    Baseline, ControlRecord, GraspProfile, ObserverError, Protocol, ProtocolConfig, ProtocolEvent, Rig, Tare,
+    TrialObserver, TrialOutcome, run_trial,
+};
+use slidetrack_core::{DecoderCounters, Frame, Phase, SimTruth, TactileInfo, TactileSample, TimeNs};
+use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
+use slidetrack_session::{
+    ArucoDetection, CameraCalibration, ChannelMessage, CompressedImage, ProtocolEvent as EventMsg,
+    ReadOptions, SESSION_METADATA, SessionInfo, SimTruth as TruthMsg, TactileDecoder, TactileRaw,
+    TaxelLayout, read_channel,
+};
+use slidetrack_sim::ObjectConfig;
+
+pub use devices::{RecordedMarkers, ReplayCamera, ReplayHand, ReplayTactile, ReplayTruth};
+pub use stream::{Recorded, TopicStream};
+
+use crate::dekf_run::DekfStage;
+use crate::marker::MarkerSource;
+use crate::observer::TrialExtension;
+use crate::rig::{RigSetup, TrialSpec};
+use crate::rig_config::RigConfig;
+use crate::trial::CYCLES_DURATION_KEY;
+
+/// A recorded session, ready to be replayed: what its rig, object and
+/// protocol were, and which of the replayed channels it has.
+#[derive(Clone, Debug)]
+pub struct ReplaySession {
+    /// The session file.
+    pub path: PathBuf,
+    /// The rig configuration it was recorded with.
+    pub rig: RigConfig,
+    /// Its object.
+    pub object: ObjectConfig,
+    /// The seed of its simulated rig (0 for a real rig).
+    pub seed: u64,
+    /// Its trial number.
+    pub trial: u32,
+    /// The duration of its sliding cycles (s); infinite when the recording
+    /// does not say (the replay then runs to the end of the recording).
+    pub cycles_duration_s: f64,
+    /// The recorded tactile source.
+    pub tactile: TactileInfo,
+    /// The camera's intrinsics, when it recorded camera frames and marker detections.
+    pub camera: Option<slidetrack_core::CameraIntrinsics>,
+    /// True when it has the simulator's truth.
+    pub has_truth: bool,
+    /// True when it has the tactile decoder's counters.
+    pub has_decoder: bool,
+}
+
+/// Which recorded devices a replay plays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReplayOptions {
+    /// The camera and the marker detections (when recorded).
+    pub camera: bool,
+    /// The simulator's truth (when recorded).
+    pub truth: bool,
+}
+
+impl Default for ReplayOptions {
+    /// Every recorded device.
+    fn default() -> Self {
+        ReplayOptions { camera: true, truth: true }
+    }
+}
+
+impl ReplaySession {
+    /// Reads what `path` holds; fails when it has no raw tactile scans.
+    pub fn open(path: &Path) -> Result<ReplaySession> {
+        let info = SessionInfo::read(path, ReadOptions::default())?;
+        let has = |topic: &str| info.channel(topic).is_some_and(|c| c.message_count > 0);
+        if !has(TactileRaw::TOPIC) {
+            bail!("{} has no {} to replay", path.display(), TactileRaw::TOPIC);
+        }
+        let meta = info.metadata.get(SESSION_METADATA).cloned().unwrap_or_default();
+        let origin = |what: &str| format!("{} metadata {what}", path.display());
+        let rig = match meta.get("rig_config").filter(|t| !t.trim().is_empty()) {
+            Some(text) => slidetrack_core::parse_toml(text, &origin("rig_config"))?,
+            None => RigConfig::default(),
+        };
+        let object = match meta.get("object_config").filter(|t| !t.trim().is_empty()) {
+            Some(text) => ObjectConfig::from_toml(text, &origin("object_config"))?,
+            None => ObjectConfig::load(meta.get("object").map_or("box", String::as_str))?,
+        };
+        let layout = info
+            .channel(TactileRaw::TOPIC)
+            .and_then(|c| TaxelLayout::from_channel_metadata(&c.metadata))
+            .transpose()
+            .with_context(|| format!("{}: bad taxel layout on {}", path.display(), TactileRaw::TOPIC))?;
+        let tactile = match layout {
+            Some(l) => TactileInfo { device: l.device, rate_hz: l.rate_hz, taxels: Some(l.taxels) },
+            None => TactileInfo { device: "recorded".into(), rate_hz: rig.sim.tactile_rate_hz, taxels: None },
+        };
+        let camera = if has(CompressedImage::TOPIC) && has(ArucoDetection::TOPIC) {
+            let calibration = read_channel::<CameraCalibration>(path, ReadOptions::default())?;
+            calibration.first().and_then(|(_, c)| c.intrinsics())
+        } else {
+            None
+        };
+        Ok(ReplaySession {
+            path: path.to_path_buf(),
+            seed: meta.get("seed").and_then(|s| s.parse().ok()).unwrap_or(0),
+            trial: meta.get("trial").and_then(|s| s.parse().ok()).unwrap_or(0),
+            cycles_duration_s: cycles_duration(path, &meta)?,
+            rig,
+            object,
+            tactile,
+            camera,
+            has_truth: has(TruthMsg::TOPIC),
+            has_decoder: has(TactileDecoder::TOPIC),
+        })
+    }
+
+    /// The trial this session recorded, to be recorded again at `out`.
+    pub fn trial_spec(&self, out: PathBuf, overwrite: bool) -> TrialSpec<'_> {
+        TrialSpec {
+            rig: &self.rig,
+            object: &self.object,
+            seed: self.seed,
+            trial: self.trial,
+            duration_s: self.cycles_duration_s,
+            camera: self.camera.is_some(),
+            realtime: false,
+            overwrite,
+            path: out,
+        }
+    }
+
+    /// The replay rig of this session.
+    pub fn rig(&self, options: ReplayOptions) -> Result<RigSetup> {
+        let (clock, shared_clock) = devices::replay_clock();
+        let path = &self.path;
+        let tactile = ReplayTactile::open(path, self.tactile.clone(), self.has_decoder, clock.clone())?;
+        let (camera, markers) = match (&self.camera, options.camera) {
+            (Some(intrinsics), true) => {
+                let camera = ReplayCamera::open(path, intrinsics.clone(), clock.clone())?;
+                let markers = RecordedMarkers::open(path, intrinsics.clone())?;
+                (
+                    Some(Box::new(camera) as Box<dyn slidetrack_core::Camera>),
+                    Some(Box::new(markers) as Box<dyn MarkerSource>),
+                )
+            }
+            _ => (None, None),
+        };
+        let truth = if self.has_truth && options.truth {
+            Some(Box::new(ReplayTruth::open(path, clock)?) as Box<dyn slidetrack_core::TruthSource>)
+        } else {
+            None
+        };
+        let rig = Rig {
+            tactile: Box::new(tactile),
+            hand: Box::new(ReplayHand::new(hand_max_volts(&self.rig))),
+            camera,
+            clock: shared_clock,
+            truth,
+        };
+        let extra_metadata =
+            std::collections::BTreeMap::from([("replay_of".to_string(), self.path.display().to_string())]);
+        Ok(RigSetup {
+            rig,
+            tactile_info: self.tactile.clone(),
+            markers,
+            rig_name: "replay".into(),
+            extra_metadata,
+        })
+    }
+
+    /// The protocol the recording ran.
+    pub fn protocol(&self) -> Protocol {
+        let e = &self.object.experiment;
+        Protocol::new(ProtocolConfig {
+            settings: self.rig.protocol.clone(),
+            profile: GraspProfile {
+                max_counts: e.grasp_max_counts,
+                min_counts: e.grasp_min_counts,
+                period_s: e.period_s,
+                sharpness: e.sharpness,
+            },
+            travel_limit_m: e.travel_limit_m,
+            cycles_duration_s: self.cycles_duration_s,
+        })
+    }
+}
+
+/// The voltage range of the recorded rig's hand.
+fn hand_max_volts(rig: &RigConfig) -> f64 {
+    match rig.hw.as_ref().map(|hw| &hw.hand) {
+        Some(slidetrack_drivers::config::HandDevice::Can(c)) => c.max_volts,
+        _ => rig.sim.max_volts,
+    }
+}
+
+/// The cycles' duration: recorded in the metadata by recent versions, else
+/// the time from entering the cycles to the release, which makes the
+/// protocol release at the same scan; infinite when the trial never released.
+fn cycles_duration(path: &Path, meta: &std::collections::BTreeMap<String, String>) -> Result<f64> {
+    if let Some(d) = meta.get(CYCLES_DURATION_KEY).and_then(|s| s.parse::<f64>().ok()) {
+        return Ok(d);
+    }
+    let events = match read_channel::<EventMsg>(path, ReadOptions::default()) {
+        Ok(events) => events,
+        Err(slidetrack_session::SessionError::NoSuchTopic { .. }) => Vec::new(),
+        Err(e) => return Err(e.into()),
+    };
+    let at = |phase: Phase| events.iter().find(|(_, e)| e.phase == phase && !e.abort).map(|(t, _)| *t);
+    Ok(match (at(Phase::Cycles), at(Phase::Release)) {
+        (Some(cycles), Some(release)) => release.secs_since(cycles),
+        _ => f64::INFINITY,
+    })
+}
+
+/// A trial observer that records nothing: it feeds the replayed data to an
+/// extension (the online estimators) with the recorded marker detections.
+struct ExtensionObserver<'a> {
+    markers: Option<Box<dyn MarkerSource>>,
+    extension: &'a mut dyn TrialExtension,
+}
+
+impl TrialObserver for ExtensionObserver<'_> {
+    fn on_tactile(&mut self, _sample: &TactileSample) -> Result<(), ObserverError> {
+        Ok(())
+    }
+
+    fn on_truth(&mut self, truth: &SimTruth) -> Result<(), ObserverError> {
+        self.extension.on_truth(truth);
+        Ok(())
+    }
+
+    fn on_tare(&mut self, _t: TimeNs, _tare: &Tare) -> Result<(), ObserverError> {
+        Ok(())
+    }
+
+    fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
+        self.extension.on_zeroed(t, zeroed)
+    }
+
+    fn on_control(&mut self, _t: TimeNs, _record: &ControlRecord) -> Result<(), ObserverError> {
+        Ok(())
+    }
+
+    fn on_command(&mut self, _t: TimeNs, _volts: [f64; 3], _saturated: bool) -> Result<(), ObserverError> {
+        Ok(())
+    }
+
+    fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError> {
+        let detection = match self.markers.as_mut() {
+            Some(m) => m.detect(&frame)?,
+            None => ArucoDetection::missed(),
+        };
+        self.extension.on_frame(&frame, detection.position_on_axis_m)?;
+        Ok(detection.position_on_axis_m)
+    }
+
+    fn on_event(&mut self, t: TimeNs, event: &ProtocolEvent) -> Result<(), ObserverError> {
+        self.extension.on_event(t, event);
+        Ok(())
+    }
+
+    fn on_decoder(&mut self, _t: TimeNs, _counters: &DecoderCounters) -> Result<(), ObserverError> {
+        Ok(())
+    }
+}
+
+/// Replays `session` with `extension` running on it, recording nothing.
+pub fn replay_with(
+    session: &ReplaySession,
+    options: ReplayOptions,
+    extension: &mut dyn TrialExtension,
+) -> Result<TrialOutcome> {
+    let RigSetup { mut rig, markers, .. } = session.rig(options)?;
+    let mut observer = ExtensionObserver { markers, extension };
+    let mut protocol = session.protocol();
+    Ok(run_trial(&mut rig, &mut protocol, &mut observer, &AtomicBool::new(false)))
+}
+
+/// Collects the dEKF's estimates of a replay.
+struct DekfCollector {
+    stage: DekfStage,
+    outputs: Vec<(TimeNs, DekfOutput)>,
+}
+
+impl TrialExtension for DekfCollector {
+    fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
+        if let Some(out) = self.stage.on_scan(t, zeroed.as_flattened().try_into()?) {
+            self.outputs.push((t, out));
+        }
+        Ok(())
+    }
+
+    fn on_frame(&mut self, _frame: &Frame, _position_on_axis_m: Option<f64>) -> Result<(), ObserverError> {
+        Ok(())
+    }
+}
+
+/// The dEKF `model` on a replay of the session at `path`: its estimates at
+/// every filter step of the whole recording, as `track` computed them live.
+pub fn replay_dekf(path: &Path, model: &DekfModel) -> Result<Vec<(TimeNs, DekfOutput)>> {
+    let session = ReplaySession::open(path)?;
+    check_rate(&session, model)?;
+    let mut collector = DekfCollector { stage: DekfStage::new(model)?, outputs: Vec::new() };
+    // The dEKF reads tactile data only: no camera, no truth.
+    let outcome = replay_with(&session, ReplayOptions { camera: false, truth: false }, &mut collector)?;
+    if let Some(reason) = outcome.abort.filter(|_| collector.outputs.is_empty()) {
+        bail!("{}: the replay ended before the dEKF ran: {reason}", path.display());
+    }
+    Ok(collector.outputs)
+}
+
+/// Checks that `model` was trained at the session's tactile rate.
+pub fn check_rate(session: &ReplaySession, model: &DekfModel) -> Result<()> {
+    let (rate, expected) = (session.tactile.rate_hz, model.meta.tactile_rate_hz);
+    if (rate - expected).abs() > 0.05 * expected {
+        bail!(
+            "{}: tactile rate {rate:.1} Hz, but the model was trained at {expected:.1} Hz (decimation {})",
+            session.path.display(),
+            model.meta.decimation
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,146 @@
+//! Rigs ready to run a trial: the simulated rig, and the real rig of a rig
+//! TOML's `[hw]` table ([`hw`]). (The replay rig is built from its session,
+//! in `crate::replay`.)
+
+#[cfg(all(feature = "devices", target_os = "linux"))]
+mod hw;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
+use slidetrack_control::Rig;
+use slidetrack_core::{Camera, CameraIntrinsics, Clock, SimClock, TactileInfo, TactileSource, WallClock};
+use slidetrack_sim::camera::SimCameraRenderer;
+use slidetrack_sim::{ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
+
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use hw::describe;
+
+use crate::marker::{LiveMarkers, MarkerSource};
+use crate::rig_config::RigConfig;
+
+/// Which rig runs a trial.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RigKind {
+    /// The simulated rig (physics model of the hand, object and sensors).
+    Sim,
+    /// The real rig, with the devices of the rig configuration's `[hw]` table.
+    Hw,
+}
+
+/// What to run.
+pub struct TrialSpec<'a> {
+    /// The rig.
+    pub rig: &'a RigConfig,
+    /// The object.
+    pub object: &'a ObjectConfig,
+    /// Seed of the simulated rig.
+    pub seed: u64,
+    /// Trial number.
+    pub trial: u32,
+    /// Duration of the sliding cycles (s).
+    pub duration_s: f64,
+    /// Render, detect and record the camera.
+    pub camera: bool,
+    /// Run on wall-clock time.
+    pub realtime: bool,
+    /// Replace an existing session file.
+    pub overwrite: bool,
+    /// Session file to write.
+    pub path: PathBuf,
+}
+
+/// A rig ready to run, with what the recorder needs to know about it.
+pub struct RigSetup {
+    /// The devices.
+    pub rig: Rig,
+    /// Facts about the tactile source, for the taxel layout.
+    pub tactile_info: TactileInfo,
+    /// The marker detection of the camera's frames, when there is a camera.
+    pub markers: Option<Box<dyn MarkerSource>>,
+    /// `sim`, `replay`, or the name of the real rig.
+    pub rig_name: String,
+    /// Further keys of the session's metadata record (a replay names its recording).
+    pub extra_metadata: BTreeMap<String, String>,
+}
+
+/// The simulated rig of `spec`'s trial, with its camera when asked for.
+pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
+    let clock: Arc<dyn Clock> =
+        if spec.realtime { Arc::new(WallClock::start()) } else { Arc::new(SimClock::new()) };
+    let object = spec.object;
+    let sim = SimDevices::new(&spec.rig.sim, object, spec.seed, spec.trial, clock.clone());
+    let tactile_info = sim.tactile.info();
+    let geometry = &spec.rig.geometry;
+    let (camera, markers) = if spec.camera {
+        let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
+            .context("cannot make the marker for the simulated camera")?;
+        let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
+        let renderer =
+            SimCameraRenderer::new(spec.rig.camera.clone(), object.appearance.clone(), marker, seed)
+                .context("cannot set up the simulated camera")?;
+        let camera = SimCamera::new(
+            sim.world.clone(),
+            renderer,
+            geometry.object_start_in_hand_m,
+            geometry.sliding_axis_in_hand,
+        )?;
+        // libjpeg-turbo through OpenCV: several times faster than the built-in encoder.
+        let quality = camera.jpeg_quality();
+        let camera = camera.with_encoder(Box::new(move |image| match encode_jpeg(image, quality) {
+            Ok(encoded) => Some(encoded),
+            Err(e) => {
+                tracing::warn!("sim camera: {e}");
+                None
+            }
+        }));
+        let markers = marker_tracking(spec, camera.hand_from_camera(), camera.intrinsics())?;
+        (Some(Box::new(camera) as Box<dyn Camera>), Some(Box::new(markers) as Box<dyn MarkerSource>))
+    } else {
+        (None, None)
+    };
+    let rig = Rig {
+        tactile: Box::new(sim.tactile),
+        hand: Box::new(sim.hand),
+        camera,
+        clock,
+        truth: Some(Box::new(sim.truth)),
+    };
+    Ok(RigSetup { rig, tactile_info, markers, rig_name: "sim".into(), extra_metadata: BTreeMap::new() })
+}
+
+/// Marker detection for a camera at `hand_from_camera` with `intrinsics`.
+pub fn marker_tracking(
+    spec: &TrialSpec,
+    hand_from_camera: nalgebra::Isometry3<f64>,
+    intrinsics: &CameraIntrinsics,
+) -> Result<LiveMarkers> {
+    let axis = SlidingAxis::new(hand_from_camera, spec.rig.geometry.sliding_axis_in_hand.into())?;
+    Ok(LiveMarkers {
+        tracker: MarkerTracker::new(Dictionary::from_name(&spec.rig.marker.dictionary)?, spec.rig.marker.id)?,
+        marker_size_m: spec.object.appearance.marker_size_m,
+        intrinsics: intrinsics.clone(),
+        projector: axis.projector(),
+    })
+}
+
+/// The rig of `spec`, simulated or real, once it is clear that its session
+/// file may be written.
+pub fn build_rig(kind: RigKind, spec: &TrialSpec) -> Result<RigSetup> {
+    if spec.path.exists() && !spec.overwrite {
+        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
+    }
+    match kind {
+        RigKind::Sim => build_sim_rig(spec),
+        #[cfg(all(feature = "devices", target_os = "linux"))]
+        RigKind::Hw => hw::build_hw_rig(spec),
+        #[cfg(not(all(feature = "devices", target_os = "linux")))]
+        RigKind::Hw => bail!(
+            "--rig hw needs the real devices' backends, and this slidetrack was built without them \
+             (the `devices` feature, Linux only)"
+        ),
+    }
+}

@@ -1,0 +1,82 @@
+//! The replay rig end to end: a session recorded by `track` and played back
+//! by `track --rig replay` gives the same estimates, message for message,
+//! and the same protocol, commands and marker track; bad requests fail with
+//! one line.
+#![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use common::{fails, ok, tempdir, trained};
+use slidetrack_session::{MessageReader, ReadOptions, SESSION_METADATA, SessionInfo};
+
+/// Every message of `topic` in `path`: `(log time, publish time, sequence, payload)`.
+fn messages(path: &Path, topic: &str) -> Vec<(u64, u64, u32, Vec<u8>)> {
+    MessageReader::open(path, &[topic], ReadOptions::default())
+        .unwrap()
+        .map(|m| {
+            let m = m.unwrap();
+            (m.log_time.0, m.publish_time.0, m.sequence, m.data)
+        })
+        .collect()
+}
+
+#[test]
+fn a_replay_gives_the_estimates_of_the_live_run_message_for_message() {
+    let dir = tempdir();
+    let (_, model) = trained(dir.path());
+    let (m, live, replayed) =
+        (model.to_str().unwrap(), dir.path().join("live.mcap"), dir.path().join("replayed.mcap"));
+    ok(&["-q", "track", "--model", m, "--duration", "8", "--seed", "5", "--out", live.to_str().unwrap()]);
+    let args = ["-q", "track", "--rig", "replay", "--model", m, "--session", live.to_str().unwrap()];
+    ok(&[&args[..], &["--out", replayed.to_str().unwrap()]].concat());
+
+    for topic in [
+        "/estimate/dekf",
+        "/tactile/derivative",
+        "/estimate/aruco",
+        "/tactile/raw",
+        "/tactile/tare",
+        "/tactile/zeroed",
+        "/control/grasp",
+        "/hand/command",
+        "/protocol/events",
+        "/camera/image",
+        "/camera/calibration",
+        "/aruco/detections",
+        "/sim/truth",
+    ] {
+        let (a, b) = (messages(&live, topic), messages(&replayed, topic));
+        assert!(!a.is_empty(), "{topic}: nothing recorded live");
+        assert_eq!(a.len(), b.len(), "{topic}: {} messages live, {} replayed", a.len(), b.len());
+        if let Some(k) = a.iter().zip(&b).position(|(x, y)| x != y) {
+            panic!(
+                "{topic}: message {k} differs:\n  live   {:?}\n  replay {:?}",
+                (a[k].0, String::from_utf8_lossy(&a[k].3)),
+                (b[k].0, String::from_utf8_lossy(&b[k].3))
+            );
+        }
+    }
+    let meta: BTreeMap<String, String> =
+        SessionInfo::read(&replayed, ReadOptions::default()).unwrap().metadata[SESSION_METADATA].clone();
+    assert_eq!(meta["rig"], "replay");
+    assert_eq!(meta["replay_of"], live.display().to_string());
+}
+
+#[test]
+fn bad_replay_requests_fail_with_one_line() {
+    let dir = tempdir();
+    let (sessions, model) = trained(dir.path());
+    let (m, s) = (model.to_str().unwrap(), sessions[0].to_str().unwrap());
+    let e = fails(&["track", "--rig", "replay", "--model", m]);
+    assert!(e.contains("--session"), "{e}");
+    let e = fails(&["track", "--rig", "replay", "--model", m, "--session", s, "--out", s]);
+    assert!(e.contains("must differ"), "{e}");
+    let missing = dir.path().join("missing.mcap");
+    let e = fails(&["track", "--rig", "replay", "--model", m, "--session", missing.to_str().unwrap()]);
+    assert!(e.contains("missing.mcap"), "{e}");
+    let e = fails(&["collect", "--rig", "replay", "--out", dir.path().to_str().unwrap()]);
+    assert!(e.contains("track --rig replay"), "{e}");
+}
