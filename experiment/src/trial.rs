@@ -5,13 +5,13 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Instant, SystemTime};
 
 use anyhow::{Context, Result};
-use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, TrialOutcome, run_trial};
+use slidetrack_control::{TrialOutcome, run_trial};
 use slidetrack_core::TimeNs;
 use slidetrack_session::{Logger, Recorder, RecorderOptions, SessionMetadata};
 use slidetrack_sim::sliding_episodes;
 
 use crate::observer::{SessionObserver, TrialExtension, TrialStats};
-use crate::rig::{RigKind, RigSetup, TrialSpec, build_rig};
+use crate::rig::{RigKind, RigSetup, TrialSpec, build_rig, protocol_for};
 
 /// How a trial went.
 pub struct TrialReport {
@@ -136,18 +136,7 @@ pub fn record_trial_with<'a>(
     if let Some(make) = extension {
         observer = observer.with_extension(make(&recorder.logger())?);
     }
-    let e = &object.experiment;
-    let mut protocol = Protocol::new(ProtocolConfig {
-        settings: spec.rig.protocol.clone(),
-        profile: GraspProfile {
-            max_counts: e.grasp_max_counts,
-            min_counts: e.grasp_min_counts,
-            period_s: e.period_s,
-            sharpness: e.sharpness,
-        },
-        travel_limit_m: e.travel_limit_m,
-        cycles_duration_s: spec.duration_s,
-    });
+    let mut protocol = protocol_for(spec.rig, object, spec.duration_s);
     let outcome = run_trial(&mut rig, &mut protocol, &mut observer, stop);
     let stats = observer.stats().clone();
     drop(observer);

@@ -24,8 +24,8 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
 use slidetrack_control::{
-    Baseline, ControlRecord, GraspProfile, ObserverError, Protocol, ProtocolConfig, ProtocolEvent, Rig, Tare,
-    TrialObserver, TrialOutcome, run_trial,
+    Baseline, ControlRecord, ObserverError, Protocol, ProtocolEvent, Rig, Tare, TrialObserver, TrialOutcome,
+    run_trial,
 };
 use slidetrack_core::{DecoderCounters, Frame, Phase, SimTruth, TactileInfo, TactileSample, TimeNs};
 use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
@@ -42,7 +42,7 @@ pub use stream::{Recorded, TopicStream};
 use crate::dekf_run::DekfStage;
 use crate::marker::MarkerSource;
 use crate::observer::TrialExtension;
-use crate::rig::{RigSetup, TrialSpec};
+use crate::rig::{RigSetup, TrialSpec, protocol_for};
 use crate::rig_config::RigConfig;
 use crate::trial::CYCLES_DURATION_KEY;
 
@@ -192,18 +192,7 @@ impl ReplaySession {
 
     /// The protocol the recording ran.
     pub fn protocol(&self) -> Protocol {
-        let e = &self.object.experiment;
-        Protocol::new(ProtocolConfig {
-            settings: self.rig.protocol.clone(),
-            profile: GraspProfile {
-                max_counts: e.grasp_max_counts,
-                min_counts: e.grasp_min_counts,
-                period_s: e.period_s,
-                sharpness: e.sharpness,
-            },
-            travel_limit_m: e.travel_limit_m,
-            cycles_duration_s: self.cycles_duration_s,
-        })
+        protocol_for(&self.rig, &self.object, self.cycles_duration_s)
     }
 }
 
