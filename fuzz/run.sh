@@ -4,6 +4,8 @@
 # (`rustup toolchain install nightly`), not cargo-fuzz: it builds the targets
 # with the coverage flags cargo-fuzz uses and runs libFuzzer directly.
 # Crashing inputs land in fuzz/artifacts/, the corpus grows in fuzz/corpus/.
+# The SLCAN adapter decoder (slcan_decoder) is fuzzed with the others.
+# The xela_server WebSocket JSON decoder (xela_ws_decoder) is fuzzed with the others.
 #   fuzz/run.sh [SECONDS]
 set -euo pipefail
 cd "$(dirname "$0")"

@@ -68,7 +68,9 @@ fn the_same_seed_gives_the_same_sensor_data_with_or_without_camera() {
     assert_ne!(export(&fb), export(&fc), "another seed gives other data");
     let csv = export(&fa);
     let header = csv.lines().next().unwrap();
-    assert!(header.starts_with("log_time_ns,sequence,thumb.x,thumb.y,thumb.z"), "{header}");
+    let expected =
+        "log_time_ns,sequence,sensors.0.name,sensors.0.taxels.0.x,sensors.0.taxels.0.y,sensors.0.taxels.0.z";
+    assert!(header.starts_with(expected), "{header}");
 }
 
 #[test]

@@ -55,10 +55,17 @@ fn have_recording() -> bool {
     there
 }
 
-/// The finger map of both tests: three taxels of the 4x4 patch.
-const FINGERS: &str = "fingers = { thumb = { module = 0, taxel = 0 }, index = { module = 0, taxel = 5 }, \
-                       middle = { module = 0, taxel = 15 } }";
-const TAXELS: [usize; 3] = [0, 5, 15];
+/// A `[[hw.tactile.sensors]]` table: a 4x4 uSkin patch on `module`.
+fn patch(name: &str, module: u32, finger: &str) -> String {
+    format!(
+        "[[hw.tactile.sensors]]\nname = \"{name}\"\nmodule = {module}\nfinger = \"{finger}\"\n\
+         model = \"uSPa44\"\nrows = 4\ncols = 4\n"
+    )
+}
+
+/// The CAN board: one patch, the three fingers reading three of its taxels.
+const ONE_PATCH_FINGERS: &str = "fingers = { thumb = { sensor = \"s1\", taxel = 0 }, \
+                                 index = { sensor = \"s1\", taxel = 5 }, middle = { sensor = \"s1\" } }";
 
 #[test]
 fn a_candump_log_of_a_real_recording_decodes_to_its_values() {
@@ -95,8 +102,11 @@ fn a_candump_log_of_a_real_recording_decodes_to_its_values() {
     let log = dir.path().join("xela.log");
     std::fs::write(&log, lines.join("\n") + "\n").unwrap();
     let rig = dir.path().join("rig.toml");
-    std::fs::write(&rig, format!("[hw.tactile]\nkind = \"can\"\ntaxels = 16\nrate_hz = {rate}\n{FINGERS}\n"))
-        .unwrap();
+    let sensors = patch("s1", 0, "thumb");
+    let table = format!(
+        "[hw.tactile]\nkind = \"can\"\ntaxels = 16\nrate_hz = {rate}\n{ONE_PATCH_FINGERS}\n{sensors}"
+    );
+    std::fs::write(&rig, table).unwrap();
     let out = dir.path().join("xela.mcap");
     let p = |p: &Path| p.to_str().unwrap().to_string();
     let summary = ok(&["-q", "decode", "--can-log", &p(&log), "--config", &p(&rig), "--out", &p(&out)]);
@@ -106,8 +116,10 @@ fn a_candump_log_of_a_real_recording_decodes_to_its_values() {
     let kept: Vec<usize> = (0..rows.len() - 1).filter(|&i| i != 10).collect();
     assert_eq!(raw.len(), kept.len());
     for ((t, msg), &i) in raw.iter().zip(&kept) {
-        let got = msg.counts.into_array().map(|xyz| xyz.to_array());
-        assert_eq!(got, TAXELS.map(|k| rows[i][k]), "row {i}");
+        // Every taxel of the patch, as recorded.
+        assert_eq!(msg.sensors.len(), 1);
+        let got: Vec<RawTaxel> = msg.sensors[0].taxels.iter().map(|v| v.to_array()).collect();
+        assert_eq!(got, rows[i], "row {i}");
         let expected_us = 1000.0 + i as f64 * period_us + 120.0 * 15.0;
         assert!((t.0 as f64 / 1e3 - expected_us).abs() < 2.0, "row {i}: {t:?} vs {expected_us} us");
     }
@@ -152,9 +164,10 @@ fn a_serial_capture_of_a_real_recording_decodes_despite_damage() {
     let capture = dir.path().join("capture.bin");
     std::fs::write(&capture, &bytes).unwrap();
     let rig = dir.path().join("rig.toml");
-    let fingers = "fingers = { thumb = { module = 0, taxel = 3 }, index = { module = 1, taxel = 3 }, \
-                   middle = { module = 1, taxel = 12 } }";
-    std::fs::write(&rig, format!("[hw.tactile]\nkind = \"serial\"\n{fingers}\n")).unwrap();
+    let fingers = "fingers = { thumb = { sensor = \"s1\", taxel = 3 }, index = { sensor = \"s2\", taxel = 3 }, \
+                   middle = { sensor = \"s2\" } }";
+    let sensors = patch("s1", 0, "thumb") + &patch("s2", 1, "index");
+    std::fs::write(&rig, format!("[hw.tactile]\nkind = \"serial\"\n{fingers}\n{sensors}")).unwrap();
     let out = dir.path().join("capture.mcap");
     let p = |p: &Path| p.to_str().unwrap().to_string();
     ok(&[
@@ -175,8 +188,10 @@ fn a_serial_capture_of_a_real_recording_decodes_despite_damage() {
     assert_eq!(raw.len(), kept.len());
     for ((t, msg), &i) in raw.iter().zip(&kept) {
         assert_eq!(msg.sequence, i as u64);
-        let got = msg.counts.into_array().map(|xyz| xyz.to_array());
-        assert_eq!(got, [s1[i][3], s2[i][3], s2[i][12]], "row {i}");
+        // Both patches, every taxel: the 96 values of the recording's row.
+        let got: Vec<RawTaxel> =
+            msg.sensors.iter().flat_map(|s| s.taxels.iter().map(|v| v.to_array())).collect();
+        assert_eq!(got, [s1[i].clone(), s2[i].clone()].concat(), "row {i}");
         assert_eq!(*t, TimeNs((i as f64 / 37.959 * 1e9).round() as u64));
     }
     let (_, last) = read_channel::<TactileDecoder>(&out, ReadOptions::default()).unwrap().pop().unwrap();

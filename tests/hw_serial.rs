@@ -21,13 +21,20 @@ settle_duration_s = 1.5
 release_duration_s = 0.3
 ";
 
+/// A 4x4 patch per fingertip on the simulated rig, read through the
+/// emulator as three uSkin-style modules of 16 taxels (the default sensors).
 const SERIAL_EMULATED: &str = "
+[sim.tactile.patch]
+rows = 4
+cols = 4
+pitch_mm = 4.7
+contact_sigma_mm = 6.0
 [hw]
 name = \"emulated-serial\"
 [hw.tactile]
 kind = \"serial\"
 port = \"emulated\"
-fingers = { thumb = { module = 0, taxel = 5 }, index = { module = 1, taxel = 0 }, middle = { module = 1, taxel = 9 } }
+fingers = { thumb = { sensor = \"thumb\" }, index = { sensor = \"index\" }, middle = { sensor = \"middle\" } }
 [hw.hand]
 kind = \"sim\"
 [hw.camera]
@@ -96,7 +103,10 @@ fn collect_through_a_real_tty_gives_the_session_of_the_simulated_rig() {
     let raw_channel = hw_info.channels.iter().find(|c| c.topic == "/tactile/raw").unwrap();
     let layout = TaxelLayout::from_channel_metadata(&raw_channel.metadata).unwrap().unwrap();
     assert!(layout.device.starts_with("/dev/pts/"), "{}", layout.device);
-    assert_eq!((layout.taxels.thumb.taxel, layout.taxels.middle.module), (5, 1));
+    let grids: Vec<(String, u32, u32)> =
+        layout.sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect();
+    assert_eq!(grids, ["thumb", "index", "middle"].map(|n| (n.to_string(), 4, 4)));
+    assert_eq!(layout.fingers.middle, slidetrack_core::FingerReading::mean("middle"));
 
     let hw_raw = read_channel::<TactileRaw>(&hw, ReadOptions::default()).unwrap();
     let sim_raw = read_channel::<TactileRaw>(&sim, ReadOptions::default()).unwrap();
@@ -119,7 +129,8 @@ fn collect_through_a_real_tty_gives_the_session_of_the_simulated_rig() {
     let (hw_z, sim_z) = (zeroed(&hw), zeroed(&sim));
     for finger in 0..3 {
         let z = |v: &[(slidetrack_core::TimeNs, TactileZeroed)]| {
-            mean_std(v.iter().map(|(_, m)| m.counts.into_array()[finger].z))
+            // The finger's reading: the mean z of its patch.
+            mean_std(v.iter().map(|(_, m)| m.sensors[finger].taxels.iter().map(|t| t.z).sum::<f64>() / 16.0))
         };
         let ((mh, sh), (ms, ss)) = (z(&hw_z), z(&sim_z));
         assert!((mh - ms).abs() < 0.1 * ss.max(10.0) + 0.05 * ms.abs(), "finger {finger}: mean {mh} vs {ms}");
@@ -129,7 +140,7 @@ fn collect_through_a_real_tty_gives_the_session_of_the_simulated_rig() {
     let counters = read_channel::<TactileDecoder>(&hw, ReadOptions::default()).unwrap();
     let (_, last) = counters.last().unwrap();
     assert_eq!((last.crc_errors, last.resyncs, last.gaps, last.incomplete_scans), (0, 0, 0, 0), "{last:?}");
-    assert!(last.frames >= 2 * hw_raw.len() as u64, "two modules per scan: {last:?}");
+    assert!(last.frames >= 3 * hw_raw.len() as u64, "three modules per scan: {last:?}");
 }
 
 #[test]

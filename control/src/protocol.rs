@@ -6,7 +6,7 @@
 //! the requested duration, release. Any safety limit aborts with a release.
 
 use serde::{Deserialize, Serialize};
-use slidetrack_core::{AXES, DeviceError, Finger, FingerVolts, Phase, TactileSample, TimeNs};
+use slidetrack_core::{AXES, DeviceError, Finger, FingerMap, FingerVolts, Phase, TactileSample, TimeNs};
 
 use crate::pi::{PiConfig, PiController};
 use crate::reference::{GraspProfile, partition};
@@ -69,11 +69,12 @@ pub struct ProtocolConfig {
     pub cycles_duration_s: f64,
 }
 
-/// The baseline of every channel (counts), `[finger][x, y, z]`.
-pub type Baseline = [[f64; 3]; 3];
+/// A value per channel of every taxel (counts), `[taxel][x, y, z]`, taxels
+/// in the order of the tactile source's layout: a baseline, or a scan minus it.
+pub type Baseline = Vec<[f64; 3]>;
 
 /// A new tactile baseline.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Tare {
     /// Mean of the open-hand scans per channel (counts).
     pub baseline: Baseline,
@@ -137,6 +138,10 @@ pub struct Protocol {
     phase: Phase,
     phase_start: TimeNs,
     started: bool,
+    fingers: FingerMap,
+    /// The taxels a finger reads (the ones the saturation check watches),
+    /// each once, with the first finger that reads it.
+    watched: Vec<(usize, Finger)>,
     baseline_sum: Baseline,
     baseline_n: u32,
     baseline: Option<Baseline>,
@@ -145,20 +150,33 @@ pub struct Protocol {
     above_threshold: [u32; 3],
     ramp_from_counts: f64,
     last_tick: Option<TimeNs>,
-    saturated_scans: [[u32; 3]; 3],
+    /// Consecutive saturated scans per watched taxel and axis.
+    saturated_scans: Vec<[u32; 3]>,
     abort: Option<AbortReason>,
 }
 
 impl Protocol {
-    /// A protocol about to zero the baseline.
-    pub fn new(cfg: ProtocolConfig) -> Protocol {
+    /// A protocol about to zero the baseline, reading each finger's tactile
+    /// values through `fingers`.
+    pub fn new(cfg: ProtocolConfig, fingers: FingerMap) -> Protocol {
         let controllers = [0, 1, 2].map(|_| PiController::new(cfg.settings.pi.clone()));
+        let mut watched: Vec<(usize, Finger)> = Vec::new();
+        for f in Finger::ALL {
+            for taxel in fingers.taxels(f) {
+                if !watched.iter().any(|(t, _)| *t == taxel) {
+                    watched.push((taxel, f));
+                }
+            }
+        }
         Protocol {
             cfg,
             phase: Phase::Zero,
             phase_start: TimeNs::ZERO,
             started: false,
-            baseline_sum: [[0.0; 3]; 3],
+            saturated_scans: vec![[0; 3]; watched.len()],
+            fingers,
+            watched,
+            baseline_sum: Vec::new(),
             baseline_n: 0,
             baseline: None,
             controllers,
@@ -166,7 +184,6 @@ impl Protocol {
             above_threshold: [0; 3],
             ramp_from_counts: 0.0,
             last_tick: None,
-            saturated_scans: [[0; 3]; 3],
             abort: None,
         }
     }
@@ -246,15 +263,30 @@ impl Protocol {
 
     fn check_saturation(&mut self, sample: &TactileSample) -> Option<AbortReason> {
         let margin = self.cfg.settings.safety.saturation_margin_counts;
-        for (f, finger) in Finger::ALL.into_iter().enumerate() {
+        for ((taxel, finger), n) in self.watched.iter().zip(&mut self.saturated_scans) {
+            let Some(v) = sample.raw.get(*taxel) else { continue };
             for (a, axis) in AXES.into_iter().enumerate() {
-                let v = sample.raw[f][a];
-                let n = &mut self.saturated_scans[f][a];
-                *n = if v <= margin || v >= u16::MAX - margin { *n + 1 } else { 0 };
-                if *n >= self.cfg.settings.safety.saturation_scans {
-                    return Some(AbortReason::Saturated { finger, axis, counts: v, scans: *n });
+                n[a] = if v[a] <= margin || v[a] >= u16::MAX - margin { n[a] + 1 } else { 0 };
+                if n[a] >= self.cfg.settings.safety.saturation_scans {
+                    return Some(AbortReason::Saturated { finger: *finger, axis, counts: v[a], scans: n[a] });
                 }
             }
+        }
+        None
+    }
+
+    /// A scan that does not hold the taxels the baseline was taken over.
+    fn check_size(&self, sample: &TactileSample) -> Option<AbortReason> {
+        let expected = self.baseline.as_ref().map_or(self.baseline_sum.len(), Vec::len);
+        let needed = self.watched.iter().map(|(t, _)| t + 1).max().unwrap_or(0);
+        let got = sample.raw.len();
+        if got < needed || (expected > 0 && got != expected) {
+            let expected = expected.max(needed);
+            return Some(AbortReason::Device(DeviceError::new(
+                slidetrack_core::ErrorKind::Corrupt,
+                "tactile",
+                format!("a scan of {got} taxels where the layout has {expected}"),
+            )));
         }
         None
     }
@@ -276,7 +308,7 @@ impl Protocol {
             });
             out.action = Some(HandAction::Command([0.0; 3]));
         }
-        if let Some(reason) = self.check_saturation(sample) {
+        if let Some(reason) = self.check_size(sample).or_else(|| self.check_saturation(sample)) {
             out.events.extend(self.abort(reason));
             out.action = Some(HandAction::Release);
             return out;
@@ -285,13 +317,10 @@ impl Protocol {
             self.accumulate_baseline(sample, t, &mut out);
             return out;
         }
-        let Some(baseline) = self.baseline else { return out };
-        let mut zeroed = [[0.0; 3]; 3];
-        for f in 0..3 {
-            for a in 0..3 {
-                zeroed[f][a] = f64::from(sample.raw[f][a]) - baseline[f][a];
-            }
-        }
+        let Some(baseline) = &self.baseline else { return out };
+        let zeroed: Baseline =
+            sample.raw.iter().zip(baseline).map(|(v, b)| [0, 1, 2].map(|a| f64::from(v[a]) - b[a])).collect();
+        let readings = self.fingers.read(&zeroed);
         out.zeroed = Some(zeroed);
         let due = match self.last_tick {
             None => true,
@@ -301,23 +330,24 @@ impl Protocol {
             let dt_s =
                 self.last_tick.map_or(1.0 / self.cfg.settings.control_rate_hz, |last| t.secs_since(last));
             self.last_tick = Some(t);
-            let z = [zeroed[0][2], zeroed[1][2], zeroed[2][2]];
+            let z = readings.into_array().map(|r| r[2]);
             self.control_tick(t, z, dt_s, &mut out);
         }
         out
     }
 
     fn accumulate_baseline(&mut self, sample: &TactileSample, t: TimeNs, out: &mut ScanOutput) {
-        for f in 0..3 {
+        self.baseline_sum.resize(sample.raw.len(), [0.0; 3]);
+        for (sum, v) in self.baseline_sum.iter_mut().zip(&sample.raw) {
             for a in 0..3 {
-                self.baseline_sum[f][a] += f64::from(sample.raw[f][a]);
+                sum[a] += f64::from(v[a]);
             }
         }
         self.baseline_n += 1;
         if self.in_phase_s(t) >= self.cfg.settings.zero_duration_s {
             let n = f64::from(self.baseline_n);
-            let baseline = self.baseline_sum.map(|fa| fa.map(|s| s / n));
-            self.baseline = Some(baseline);
+            let baseline: Baseline = self.baseline_sum.iter().map(|s| s.map(|v| v / n)).collect();
+            self.baseline = Some(baseline.clone());
             out.tare = Some(Tare { baseline, scans: self.baseline_n });
             let msg = format!("baseline from {} scans; closing until contact", self.baseline_n);
             self.enter(Phase::Close, t, msg, out);

@@ -1,21 +1,24 @@
 //! The protocol's safety limits, driven scan by scan without a rig.
 
 use slidetrack_control::{AbortReason, GraspProfile, HandAction, Protocol, ProtocolConfig, ProtocolSettings};
-use slidetrack_core::{DeviceError, ErrorKind, Phase, TactileSample, TimeNs};
+use slidetrack_core::{DeviceError, ErrorKind, Phase, TactileInfo, TactileSample, TimeNs};
 
 const BASE: u16 = 30_000;
 
 fn protocol() -> Protocol {
-    Protocol::new(ProtocolConfig {
-        settings: ProtocolSettings::default(),
-        profile: GraspProfile { max_counts: 2000.0, min_counts: 800.0, period_s: 10.0, sharpness: 1.0 },
-        travel_limit_m: 0.1,
-        cycles_duration_s: 5.0,
-    })
+    Protocol::new(
+        ProtocolConfig {
+            settings: ProtocolSettings::default(),
+            profile: GraspProfile { max_counts: 2000.0, min_counts: 800.0, period_s: 10.0, sharpness: 1.0 },
+            travel_limit_m: 0.1,
+            cycles_duration_s: 5.0,
+        },
+        TactileInfo::one_module_per_finger("test", 100.0, "test").finger_map().expect("the thesis hand resolves"),
+    )
 }
 
 fn scan(k: u64, z_counts: u16) -> TactileSample {
-    TactileSample { t: TimeNs(k * 10_000_000), sequence: k, raw: [[BASE, BASE, z_counts]; 3] }
+    TactileSample { t: TimeNs(k * 10_000_000), sequence: k, raw: vec![[BASE, BASE, z_counts]; 3] }
 }
 
 /// Feeds open-hand scans until the protocol leaves the zero phase; returns the next scan index.

@@ -9,7 +9,7 @@ use slidetrack_control::{
     Baseline, ControlRecord, GraspProfile, ObserverError, Protocol, ProtocolConfig, ProtocolEvent,
     ProtocolSettings, Rig, Tare, TrialObserver, TrialOutcome, run_trial,
 };
-use slidetrack_core::{Frame, Phase, SimClock, SimTruth, TactileSample, TimeNs};
+use slidetrack_core::{Frame, Phase, SimClock, SimTruth, TactileSample, TactileSource, TimeNs};
 use slidetrack_sim::{ObjectConfig, SimDevices, SimRigConfig, sliding_episodes};
 
 #[derive(Default)]
@@ -28,7 +28,7 @@ struct Timed {
 
 impl TrialObserver for Collected {
     fn on_tactile(&mut self, s: &TactileSample) -> Result<(), ObserverError> {
-        self.raw.push(*s);
+        self.raw.push(s.clone());
         Ok(())
     }
     fn on_truth(&mut self, t: &SimTruth) -> Result<(), ObserverError> {
@@ -39,7 +39,7 @@ impl TrialObserver for Collected {
         Ok(())
     }
     fn on_zeroed(&mut self, t: TimeNs, z: &Baseline) -> Result<(), ObserverError> {
-        self.zeroed.push((t, *z));
+        self.zeroed.push((t, z.clone()));
         Ok(())
     }
     fn on_control(&mut self, t: TimeNs, r: &ControlRecord) -> Result<(), ObserverError> {
@@ -65,6 +65,7 @@ fn run(object: &str, seed: u64, trial: u32, duration_s: f64) -> (TrialOutcome, C
 fn run_object(obj: &ObjectConfig, seed: u64, trial: u32, duration_s: f64) -> (TrialOutcome, Collected) {
     let clock = Arc::new(SimClock::new());
     let sim = SimDevices::new(&SimRigConfig::default(), obj, seed, trial, clock.clone());
+    let fingers = sim.tactile.info().finger_map().expect("the simulated layout resolves");
     let mut rig = Rig {
         tactile: Box::new(sim.tactile),
         hand: Box::new(sim.hand),
@@ -79,12 +80,15 @@ fn run_object(obj: &ObjectConfig, seed: u64, trial: u32, duration_s: f64) -> (Tr
         period_s: e.period_s,
         sharpness: e.sharpness,
     };
-    let mut protocol = Protocol::new(ProtocolConfig {
-        settings: ProtocolSettings::default(),
-        profile,
-        travel_limit_m: e.travel_limit_m,
-        cycles_duration_s: duration_s,
-    });
+    let mut protocol = Protocol::new(
+        ProtocolConfig {
+            settings: ProtocolSettings::default(),
+            profile,
+            travel_limit_m: e.travel_limit_m,
+            cycles_duration_s: duration_s,
+        },
+        fingers,
+    );
     let mut seen = Collected::default();
     let outcome = run_trial(&mut rig, &mut protocol, &mut seen, &AtomicBool::new(false));
     (outcome, seen)
@@ -155,7 +159,12 @@ fn dump_trial() {
     );
     for (i, t) in seen.truth.iter().enumerate() {
         let ctrl = seen.control.iter().find(|(tc, _)| *tc == t.t).map(|(_, r)| r.clone());
-        let z = seen.zeroed.iter().find(|(tz, _)| *tz == t.t).map(|(_, z)| *z).unwrap_or([[0.0; 3]; 3]);
+        let z = seen
+            .zeroed
+            .iter()
+            .find(|(tz, _)| *tz == t.t)
+            .map(|(_, z)| z.clone())
+            .unwrap_or(vec![[0.0; 3]; 3]);
         let _ = i;
         out += &format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",

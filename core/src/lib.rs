@@ -25,6 +25,9 @@ pub use marker::{BadMarkerPattern, MarkerPattern};
 pub use phase::Phase;
 pub use placement::{CameraPlacement, PlacementError};
 pub use rgbd::{DepthImage, ObjectTruth, RgbdFrame};
-pub use tactile::{AXES, Finger, PerFinger, RawTaxel, TactileInfo, TactileSample, TactileSource, TaxelRef};
+pub use tactile::{
+    AXES, Finger, FingerMap, FingerReading, LayoutError, PerFinger, RawTaxel, SensorLayout, TactileInfo,
+    TactileLayout, TactileSample, TactileSource,
+};
 pub use time::{Clock, SimClock, TimeNs, WallClock};
 pub use truth::{SLIDING_SPEED_MPS, SimTruth, TruthSource};

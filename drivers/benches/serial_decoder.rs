@@ -10,7 +10,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group};
-use slidetrack_drivers::scan::{ModuleScanAssembler, default_finger_taxels};
+use slidetrack_drivers::scan::ModuleScanAssembler;
 use slidetrack_drivers::serial_protocol::{ModuleFrame, SerialDecoder, SerialEvent, frame_len};
 
 const MODULES: u8 = 3;
@@ -45,7 +45,7 @@ fn stream(garbage_every: usize) -> Vec<u8> {
 /// Decodes `bytes` in 4 KiB reads, as the serial backend does; returns the scans assembled.
 fn decode(bytes: &[u8]) -> u64 {
     let mut decoder = SerialDecoder::new();
-    let mut assembler = ModuleScanAssembler::new(&default_finger_taxels());
+    let mut assembler = ModuleScanAssembler::new(&[(0, 16), (1, 16), (2, 16)]);
     let mut scans = 0u64;
     for chunk in bytes.chunks(4096) {
         decoder.feed(chunk, |event| {

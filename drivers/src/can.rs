@@ -7,14 +7,14 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use slidetrack_core::{
-    Clock, DecoderCounters, DeviceError, ErrorKind, PerFinger, RawTaxel, TactileInfo, TactileSample,
-    TactileSource, TaxelRef,
+    Clock, DecoderCounters, DeviceError, ErrorKind, TactileInfo, TactileSample, TactileSource,
 };
 use socketcan::{CanDataFrame, EmbeddedFrame, ExtendedId, Id, Socket, StandardId};
 
 use crate::can_protocol::{CanFrame, CanScanAssembler};
 use crate::config::CanTactileConfig;
 use crate::io_error_kind;
+use crate::sensors::{pick_board_taxels, tactile_info};
 
 /// Moves CAN frames; the backends hold one.
 ///
@@ -106,9 +106,8 @@ pub struct CanTactile {
     bus: Arc<dyn CanBus>,
     device: String,
     assembler: CanScanAssembler,
-    board_taxels: [usize; 3],
-    fingers: PerFinger<TaxelRef>,
-    rate_hz: f64,
+    board_taxels: Vec<usize>,
+    info: TactileInfo,
     clock: Arc<dyn Clock>,
     timeout: Duration,
     startup_timeout: Duration,
@@ -135,11 +134,10 @@ impl CanTactile {
             DeviceError::new(io_error_kind(&e), &device, format!("cannot send the start command: {e}"))
         })?;
         Ok(CanTactile {
-            device,
+            device: device.clone(),
             assembler: CanScanAssembler::new(layout, CanScanAssembler::span_for_rate(cfg.rate_hz)),
             board_taxels: cfg.board_taxels(),
-            fingers: cfg.fingers,
-            rate_hz: cfg.rate_hz,
+            info: tactile_info(&device, cfg.rate_hz, &cfg.sensors, &cfg.fingers),
             clock,
             timeout: Duration::from_millis(cfg.timeout_ms),
             startup_timeout: Duration::from_millis(cfg.startup_timeout_ms.max(cfg.timeout_ms)),
@@ -204,24 +202,18 @@ impl TactileSource for CanTactile {
             };
             self.frames_seen += 1;
             let Some(scan) = self.assembler.push(self.clock.now(), &frame) else { continue };
-            let raw: Option<Vec<RawTaxel>> =
-                self.board_taxels.iter().map(|&t| scan.taxels.get(t).copied().flatten()).collect();
-            match raw.as_deref() {
-                Some(&[thumb, index, middle]) => {
+            match pick_board_taxels(&scan.taxels, &self.board_taxels) {
+                Some(raw) => {
                     self.started = true;
-                    return Ok(TactileSample {
-                        t: scan.t,
-                        sequence: scan.sequence,
-                        raw: [thumb, index, middle],
-                    });
+                    return Ok(TactileSample { t: scan.t, sequence: scan.sequence, raw });
                 }
-                _ => self.assembler.count_unusable_scan(),
+                None => self.assembler.count_unusable_scan(),
             }
         }
     }
 
     fn info(&self) -> TactileInfo {
-        TactileInfo { device: self.device.clone(), rate_hz: self.rate_hz, taxels: Some(self.fingers) }
+        self.info.clone()
     }
 
     fn counters(&self) -> Option<DecoderCounters> {

@@ -6,7 +6,10 @@
 //! [hw.tactile]
 //! kind = "serial"            # or "can", or "sim"
 //! port = "/dev/ttyACM0"      # "emulated": the simulated rig behind a pseudo-terminal
-//! fingers = { thumb = { module = 0, taxel = 5 }, index = { module = 1, taxel = 5 }, middle = { module = 2, taxel = 5 } }
+//! taxels_per_module = 16
+//! # [[hw.tactile.sensors]] tables (see `crate::sensors`) name each module;
+//! # by default modules 0, 1, 2 are 4 x 4 patches on thumb, index, middle.
+//! fingers = { thumb = { sensor = "thumb", taxel = 5 }, index = { sensor = "index", taxel = 5 }, middle = { sensor = "middle" } }
 //! [hw.camera]
 //! kind = "v4l2"              # or "sim", or "none"
 //! device = "/dev/video0"
@@ -18,12 +21,12 @@
 use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
-use slidetrack_core::{CameraIntrinsics, CameraPlacement, PerFinger, TaxelRef};
+use slidetrack_core::{CameraIntrinsics, CameraPlacement, FingerReading, PerFinger};
 use thiserror::Error;
 
 use crate::can_protocol::{CanLayoutError, XelaCanLayout};
 use crate::hand_can::{HandCanIds, HandFrameError};
-use crate::scan::default_finger_taxels;
+use crate::sensors::{HwSensor, SensorConfigError, default_fingers, default_sensors, validate_sensors};
 use crate::serial_protocol::MAX_TAXELS;
 
 /// The port name that selects the serial emulator instead of a device.
@@ -84,8 +87,10 @@ pub struct SerialTactileConfig {
     pub timeout_ms: u64,
     /// Longest wait for the first scan after opening the port (ms).
     pub startup_timeout_ms: u64,
-    /// The module and taxel each finger reads.
-    pub fingers: PerFinger<TaxelRef>,
+    /// The sensors: which modules are read, their layout and finger.
+    pub sensors: Vec<HwSensor>,
+    /// What each finger's reading is (a taxel of a sensor, or its mean).
+    pub fingers: PerFinger<FingerReading>,
     /// Faults the emulator injects (only with `port = "emulated"`).
     pub emulator: EmulatorConfig,
 }
@@ -99,7 +104,8 @@ impl Default for SerialTactileConfig {
             taxels_per_module: 16,
             timeout_ms: 50,
             startup_timeout_ms: 2000,
-            fingers: default_finger_taxels(),
+            sensors: default_sensors(4, 4),
+            fingers: default_fingers(),
             emulator: EmulatorConfig::default(),
         }
     }
@@ -132,8 +138,8 @@ pub struct CanTactileConfig {
     pub taxel_base_id: u32,
     /// Taxels on the board (all modules together).
     pub taxels: u16,
-    /// Taxels per module: finger `{module, taxel}` is board taxel
-    /// `module * taxels_per_module + taxel`.
+    /// Taxels per module: taxel `t` of a sensor on module `m` is board
+    /// taxel `m * taxels_per_module + t`.
     pub taxels_per_module: u16,
     /// Nominal scan rate (Hz), for the layout and scan assembly.
     pub rate_hz: f64,
@@ -141,8 +147,10 @@ pub struct CanTactileConfig {
     pub timeout_ms: u64,
     /// Longest wait for the first scan after the start command (ms).
     pub startup_timeout_ms: u64,
-    /// The module and taxel each finger reads.
-    pub fingers: PerFinger<TaxelRef>,
+    /// The sensors: which modules are read, their layout and finger.
+    pub sensors: Vec<HwSensor>,
+    /// What each finger's reading is (a taxel of a sensor, or its mean).
+    pub fingers: PerFinger<FingerReading>,
 }
 
 impl Default for CanTactileConfig {
@@ -158,7 +166,8 @@ impl Default for CanTactileConfig {
             rate_hz: 100.0,
             timeout_ms: 50,
             startup_timeout_ms: 2000,
-            fingers: default_finger_taxels(),
+            sensors: default_sensors(4, 4),
+            fingers: default_fingers(),
         }
     }
 }
@@ -174,11 +183,10 @@ impl CanTactileConfig {
         }
     }
 
-    /// The board taxel each finger reads, `[thumb, index, middle]`.
-    pub fn board_taxels(&self) -> [usize; 3] {
-        self.fingers
-            .into_array()
-            .map(|r| r.module as usize * usize::from(self.taxels_per_module) + r.taxel as usize)
+    /// The board taxels of a scan: every taxel of every sensor, in order.
+    pub fn board_taxels(&self) -> Vec<usize> {
+        let per = usize::from(self.taxels_per_module);
+        self.sensors.iter().flat_map(|s| (0..s.taxels()).map(move |t| s.module as usize * per + t)).collect()
     }
 }
 
@@ -332,19 +340,22 @@ pub enum HwConfigError {
         /// The valid range, in words.
         expected: &'static str,
     },
-    /// A finger reads a taxel the device does not have.
+    /// Sensors or finger readings that do not fit the device.
+    #[error(transparent)]
+    Sensors(#[from] SensorConfigError),
+    /// A sensor beyond the CAN board's taxels.
     #[error(
-        "hw.tactile.fingers.{finger} = {{ module = {module}, taxel = {taxel} }} is beyond the device ({detail})"
+        "hw.tactile.sensors `{name}` (module {module}) ends at board taxel {end}, beyond the board's {taxels} taxels"
     )]
-    FingerTaxel {
-        /// The finger.
-        finger: &'static str,
-        /// Module asked for.
+    BeyondBoard {
+        /// The sensor.
+        name: String,
+        /// Its module.
         module: u32,
-        /// Taxel asked for.
-        taxel: u32,
-        /// What the device has.
-        detail: String,
+        /// One past its last board taxel.
+        end: usize,
+        /// Taxels of the board.
+        taxels: u16,
     },
     /// Bad CAN ids of the tactile board.
     #[error("hw.tactile: {0}")]
@@ -373,16 +384,9 @@ impl HwRigConfig {
                 let ok = (1..=MAX_TAXELS).contains(&usize::from(s.taxels_per_module));
                 check("tactile.taxels_per_module", n, ok, "1..=64")?;
                 check("tactile.timeout_ms", s.timeout_ms as f64, s.timeout_ms > 0, "> 0 ms")?;
-                for (name, r) in finger_refs(&s.fingers) {
-                    if r.module > 255 || r.taxel >= u32::from(s.taxels_per_module) {
-                        let detail = format!("modules 0..=255 of {} taxels", s.taxels_per_module);
-                        return Err(HwConfigError::FingerTaxel {
-                            finger: name,
-                            module: r.module,
-                            taxel: r.taxel,
-                            detail,
-                        });
-                    }
+                validate_sensors(&s.sensors, &s.fingers, usize::from(s.taxels_per_module))?;
+                if let Some(big) = s.sensors.iter().find(|x| x.module > 255) {
+                    check("tactile.sensors.module", f64::from(big.module), false, "0..=255")?;
                 }
                 if let Some(t) = s.emulator.unplug_after_s {
                     check("tactile.emulator.unplug_after_s", t, t.is_finite() && t >= 0.0, ">= 0 s")?;
@@ -394,15 +398,13 @@ impl HwRigConfig {
                 check("tactile.timeout_ms", c.timeout_ms as f64, c.timeout_ms > 0, "> 0 ms")?;
                 let per = f64::from(c.taxels_per_module);
                 check("tactile.taxels_per_module", per, c.taxels_per_module > 0, ">= 1")?;
-                for ((name, r), board) in finger_refs(&c.fingers).into_iter().zip(c.board_taxels()) {
-                    if r.taxel >= u32::from(c.taxels_per_module) || board >= usize::from(c.taxels) {
-                        let detail = format!("{} taxels, {} per module", c.taxels, c.taxels_per_module);
-                        return Err(HwConfigError::FingerTaxel {
-                            finger: name,
-                            module: r.module,
-                            taxel: r.taxel,
-                            detail,
-                        });
+                validate_sensors(&c.sensors, &c.fingers, usize::from(c.taxels_per_module))?;
+                let per = usize::from(c.taxels_per_module);
+                for x in &c.sensors {
+                    let end = x.module as usize * per + x.taxels();
+                    if end > usize::from(c.taxels) {
+                        let (name, module, taxels) = (x.name.clone(), x.module, c.taxels);
+                        return Err(HwConfigError::BeyondBoard { name, module, end, taxels });
                     }
                 }
             }
@@ -449,10 +451,6 @@ impl HwRigConfig {
             _ => sim_rate_hz,
         }
     }
-}
-
-fn finger_refs(map: &PerFinger<TaxelRef>) -> [(&'static str, TaxelRef); 3] {
-    [("thumb", map.thumb), ("index", map.index), ("middle", map.middle)]
 }
 
 #[cfg(test)]

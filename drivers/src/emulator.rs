@@ -11,11 +11,10 @@ use std::time::{Duration, Instant};
 
 use serialport::{SerialPort, TTYPort};
 use slidetrack_core::{
-    Clock, DecoderCounters, DeviceError, ErrorKind, Finger, PerFinger, RawTaxel, TactileInfo, TactileSample,
-    TactileSource, TaxelRef,
+    Clock, DecoderCounters, DeviceError, ErrorKind, RawTaxel, TactileInfo, TactileSample, TactileSource,
 };
 
-use crate::config::{EmulatorConfig, SerialTactileConfig};
+use crate::config::{EMULATED_PORT, EmulatorConfig, SerialTactileConfig};
 use crate::serial::SerialTactile;
 use crate::serial_protocol::{FrameEncodeError, MAX_TAXELS, ModuleFrame, SYNC};
 
@@ -51,22 +50,25 @@ impl EmulatedPort {
     }
 
     /// Starts streaming `source`'s scans on a thread named `serial-emulator`:
-    /// one frame per module the `fingers` map names, `taxels_per_module`
-    /// taxels each (the mapped taxel carries the finger's values, the others
-    /// fixed filler values), the source's sequence counter as scan counter.
+    /// per scan, one frame per sensor of the source, on module `modules[i]`
+    /// for its `i`-th sensor, `taxels_per_module` taxels each (the sensor's
+    /// taxels first, fixed filler values after them), the source's sequence
+    /// counter as scan counter.
     pub fn stream(
         self,
         source: Box<dyn TactileSource>,
-        fingers: PerFinger<TaxelRef>,
+        modules: Vec<u32>,
         taxels_per_module: u16,
         faults: EmulatorConfig,
     ) -> Result<SerialEmulator, DeviceError> {
         let stop = Arc::new(AtomicBool::new(false));
         let path = self.path.clone();
+        let sensors: Vec<(u32, std::ops::Range<usize>)> =
+            modules.into_iter().zip(source.info().layout.sensor_ranges().map(|(_, r)| r)).collect();
         let worker = Worker {
             port: self,
             source,
-            fingers: fingers.into_array(),
+            sensors,
             taxels_per_module: usize::from(taxels_per_module).clamp(1, MAX_TAXELS),
             faults,
             stop: Arc::clone(&stop),
@@ -122,9 +124,11 @@ impl EmulatedSerialTactile {
         rate_hz: f64,
         clock: Arc<dyn Clock>,
     ) -> Result<EmulatedSerialTactile, DeviceError> {
+        check_emulated_sensors(&source.info(), cfg)?;
         let port = EmulatedPort::open()?;
         let tactile = SerialTactile::open(port.path(), cfg, rate_hz, clock)?;
-        let emulator = port.stream(source, cfg.fingers, cfg.taxels_per_module, cfg.emulator.clone())?;
+        let modules = cfg.sensors.iter().map(|s| s.module).collect();
+        let emulator = port.stream(source, modules, cfg.taxels_per_module, cfg.emulator.clone())?;
         Ok(EmulatedSerialTactile { tactile, _emulator: emulator })
     }
 }
@@ -145,10 +149,35 @@ impl TactileSource for EmulatedSerialTactile {
     }
 }
 
+/// The configured sensors must be the simulated ones, taxel for taxel: the
+/// emulator sends what the simulator measures, nothing invented.
+fn check_emulated_sensors(sim: &TactileInfo, cfg: &SerialTactileConfig) -> Result<(), DeviceError> {
+    let sim_sensors = &sim.layout.sensors;
+    let mismatch = sim_sensors.len() != cfg.sensors.len()
+        || sim_sensors.iter().zip(&cfg.sensors).any(|(a, b)| a.taxels() != b.taxels());
+    if !mismatch {
+        return Ok(());
+    }
+    let describe = |v: Vec<(String, u32, u32)>| {
+        v.iter().map(|(n, r, c)| format!("{n} {r}x{c}")).collect::<Vec<_>>().join(", ")
+    };
+    let sim = describe(sim_sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect());
+    let hw = describe(cfg.sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect());
+    Err(DeviceError::new(
+        ErrorKind::Other,
+        EMULATED_PORT,
+        format!(
+            "hw.tactile.sensors ({hw}) must match the simulated sensors ({sim}) taxel for taxel: \
+             set rows and cols, or a [sim.tactile.patch]"
+        ),
+    ))
+}
+
 struct Worker {
     port: EmulatedPort,
     source: Box<dyn TactileSource>,
-    fingers: [TaxelRef; 3],
+    /// Per sensor of the source: its module and its taxels in a scan.
+    sensors: Vec<(u32, std::ops::Range<usize>)>,
     taxels_per_module: usize,
     faults: EmulatorConfig,
     stop: Arc<AtomicBool>,
@@ -156,9 +185,6 @@ struct Worker {
 
 impl Worker {
     fn run(mut self) {
-        let mut modules: Vec<u32> = self.fingers.iter().map(|r| r.module).collect();
-        modules.sort_unstable();
-        modules.dedup();
         let unplug_after = self.faults.unplug_after_s.map(Duration::from_secs_f64);
         let mut first_scan: Option<Instant> = None;
         let mut frames = 0u64;
@@ -183,14 +209,18 @@ impl Worker {
             };
             first_scan.get_or_insert_with(Instant::now);
             bytes.clear();
-            for &module in &modules {
+            for (module, taxels) in &self.sensors {
                 frames += 1;
                 let f = &self.faults;
                 if f.garbage_every_frames > 0 && frames.is_multiple_of(u64::from(f.garbage_every_frames)) {
                     bytes.extend_from_slice(&GARBAGE);
                 }
                 let start = bytes.len();
-                match self.module_frame(module, &sample) {
+                match self.module_frame(
+                    *module,
+                    sample.raw.get(taxels.clone()).unwrap_or(&[]),
+                    sample.sequence,
+                ) {
                     Ok(frame) => frame.encode_into(&mut bytes),
                     Err(e) => {
                         tracing::warn!("serial emulator: {e}");
@@ -213,22 +243,21 @@ impl Worker {
         drop(self.port.slave);
     }
 
-    fn module_frame(&self, module: u32, sample: &TactileSample) -> Result<ModuleFrame, FrameEncodeError> {
-        let mut taxels: Vec<RawTaxel> = (0..self.taxels_per_module)
+    fn module_frame(
+        &self,
+        module: u32,
+        values: &[RawTaxel],
+        sequence: u64,
+    ) -> Result<ModuleFrame, FrameEncodeError> {
+        let taxels: Vec<RawTaxel> = (0..self.taxels_per_module)
             .map(|t| {
-                let filler = 1000 * (module as u16 % 60) + 10 * t as u16;
-                [filler, filler + 1, filler + 2]
+                values.get(t).copied().unwrap_or_else(|| {
+                    let filler = 1000 * (module as u16 % 60) + 10 * t as u16;
+                    [filler, filler + 1, filler + 2]
+                })
             })
             .collect();
-        for f in Finger::ALL {
-            let r = self.fingers[f.index()];
-            if r.module == module
-                && let Some(slot) = taxels.get_mut(r.taxel as usize)
-            {
-                *slot = sample.raw[f.index()];
-            }
-        }
-        ModuleFrame::new(module as u8, sample.sequence as u16, &taxels)
+        ModuleFrame::new(module as u8, sequence as u16, &taxels)
     }
 }
 

@@ -11,6 +11,8 @@
 //! [`ErrorKind`](slidetrack_core::ErrorKind)s. The wire formats are documented in `docs/protocols.md`.
 //! [`emulator`] streams the simulated rig's tactile data as real serial
 //! bytes through a pseudo-terminal; [`offline`] decodes captured traffic.
+//! [`xela_ws`] reads XELA's `xela_server` (WebSocket JSON): its decoder, a
+//! blocking client and a local emulator.
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod can;
@@ -27,11 +29,18 @@ pub mod hand_can;
 pub mod mjpeg;
 pub mod offline;
 pub mod scan;
+pub mod sensors;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod serial;
 pub mod serial_protocol;
+pub mod slcan;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod slcan_bus;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod slcan_emulator;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod v4l2;
+pub mod xela_ws;
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use can::{CanBus, CanTactile, SocketCanBus};
@@ -42,6 +51,10 @@ pub use config::HwRigConfig;
 pub use emulator::{EmulatedPort, EmulatedSerialTactile, SerialEmulator};
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use serial::SerialTactile;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use slcan_bus::SlcanBus;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use slcan_emulator::SlcanEmulator;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use v4l2::V4l2Camera;
 

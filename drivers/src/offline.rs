@@ -4,12 +4,13 @@
 
 use std::io::{BufRead, BufReader, Read};
 
-use slidetrack_core::{DecoderCounters, RawTaxel, TactileSample, TimeNs};
+use slidetrack_core::{DecoderCounters, TactileSample, TimeNs};
 
 use crate::can_protocol::{CanFrame, CanScanAssembler};
 use crate::candump::{self, CandumpFrame, CandumpRecord};
 use crate::config::{CanTactileConfig, SerialTactileConfig};
 use crate::scan::{ModuleScanAssembler, SequenceUnwrapper};
+use crate::sensors::{module_taxels, pick_board_taxels};
 use crate::serial_protocol::{SerialDecoder, SerialEvent};
 
 /// Decodes a `candump -l` log (`(1700000000.123456) can0 710#00123456789ABC`)
@@ -25,7 +26,7 @@ pub struct CanLogDecoder<R: Read> {
     line: String,
     interface: Option<String>,
     assembler: CanScanAssembler,
-    board_taxels: [usize; 3],
+    board_taxels: Vec<usize>,
     first_us: Option<u64>,
     last_t: TimeNs,
     lines: u64,
@@ -120,7 +121,7 @@ impl<R: Read> Iterator for CanLogDecoder<R> {
             };
             let Some((t, frame)) = self.frame(record) else { continue };
             let Some(scan) = self.assembler.push(t, &frame) else { continue };
-            match pick(&scan.taxels, self.board_taxels) {
+            match pick_board_taxels(&scan.taxels, &self.board_taxels) {
                 Some(raw) => return Some(TactileSample { t: scan.t, sequence: scan.sequence, raw }),
                 None => self.assembler.count_unusable_scan(),
             }
@@ -132,11 +133,6 @@ impl<R: Read> Iterator for CanLogDecoder<R> {
 /// the Unix epoch) on `interface`, without the newline.
 pub fn candump_line(t_us: u64, interface: &str, frame: &CanFrame) -> String {
     candump::format_line(t_us, interface, frame.id, frame.extended, frame.data())
-}
-
-fn pick(taxels: &[Option<RawTaxel>], board_taxels: [usize; 3]) -> Option<[RawTaxel; 3]> {
-    let [a, b, c] = board_taxels.map(|t| taxels.get(t).copied().flatten());
-    Some([a?, b?, c?])
 }
 
 /// Decodes a raw serial capture (the bytes as the port delivered them).
@@ -189,7 +185,7 @@ impl<R: Read> SerialCaptureDecoder<R> {
             input,
             decoder: SerialDecoder::new(),
             scans: CaptureScans {
-                assembler: ModuleScanAssembler::new(&cfg.fingers),
+                assembler: ModuleScanAssembler::new(&module_taxels(&cfg.sensors)),
                 unwrapper: SequenceUnwrapper::default(),
                 period_ns: 1e9 / rate_hz.max(1e-6),
                 first: None,

@@ -1,89 +1,75 @@
-//! From module frames to fingertip scans: which taxel of which module each
-//! finger reads, and the assembly of the frames of one scan.
+//! From module frames to scans: the frames of one scan (same sequence
+//! counter) joined into every taxel of every configured sensor.
 
-use slidetrack_core::{Finger, PerFinger, RawTaxel, TaxelRef};
+use slidetrack_core::RawTaxel;
 
 use crate::serial_protocol::ModuleFrame;
 
-/// Which taxel of which module each finger's `[x, y, z]` comes from,
-/// indexed by [`Finger::index`].
-pub type FingerTaxels = [TaxelRef; 3];
-
-/// The default map: one module per finger (thumb 0, index 1, middle 2), taxel 0 of each.
-pub fn default_finger_taxels() -> PerFinger<TaxelRef> {
-    PerFinger::from_fn(|f| TaxelRef { module: f.index() as u32, taxel: 0 })
-}
-
-/// Assembles the module frames of one scan (same sequence counter) into the
-/// three fingers' values.
+/// Assembles the module frames of one scan (same sequence counter) into a
+/// scan of every configured sensor: the first `taxels` taxels of each
+/// sensor's module frame, sensors in configuration order.
 ///
 /// # Contract
-/// - A scan is emitted as soon as every module the map names has delivered
-///   its frame for that sequence number; frames of other modules are ignored.
+/// - A scan is emitted as soon as every configured module has delivered its
+///   frame for that sequence number; frames of other modules are ignored.
 /// - A frame with a different sequence number while a scan is partly filled
 ///   ends that scan: it is counted in [`incomplete_scans`](Self::incomplete_scans)
 ///   and never emitted half-filled.
-/// - A module whose frame is too short for its mapped taxel never completes
+/// - A module whose frame has fewer taxels than its sensor never completes
 ///   a scan; [`short_module`](Self::short_module) says which.
 pub struct ModuleScanAssembler {
-    fingers: FingerTaxels,
+    /// Per sensor: its module and taxel count.
+    sensors: Vec<(u32, usize)>,
     current: Option<u16>,
-    filled: [Option<RawTaxel>; 3],
+    filled: Vec<Option<Vec<RawTaxel>>>,
     incomplete: u64,
-    short: Option<(u32, u32, usize)>,
+    short: Option<(u32, usize, usize)>,
 }
 
 impl ModuleScanAssembler {
-    /// An assembler for the fingers' `map`.
-    pub fn new(map: &PerFinger<TaxelRef>) -> ModuleScanAssembler {
+    /// An assembler of the sensors `(module, taxels)`, in scan order.
+    pub fn new(sensors: &[(u32, usize)]) -> ModuleScanAssembler {
         ModuleScanAssembler {
-            fingers: map.into_array(),
+            sensors: sensors.to_vec(),
             current: None,
-            filled: [None; 3],
+            filled: vec![None; sensors.len()],
             incomplete: 0,
             short: None,
         }
     }
 
-    /// Feeds one frame; returns `(sequence, [thumb, index, middle])` when it completes a scan.
-    pub fn push(&mut self, frame: &ModuleFrame) -> Option<(u16, [RawTaxel; 3])> {
+    /// Adds a frame; returns `(sequence, every taxel of the scan)` when it completes one.
+    pub fn push(&mut self, frame: &ModuleFrame) -> Option<(u16, Vec<RawTaxel>)> {
         let module = u32::from(frame.module);
-        if !self.fingers.iter().any(|r| r.module == module) {
-            return None;
-        }
+        let slot = self.sensors.iter().position(|(m, _)| *m == module)?;
         if self.current != Some(frame.sequence) {
             if self.filled.iter().any(Option::is_some) {
                 self.incomplete += 1;
             }
-            self.filled = [None; 3];
+            self.filled.iter_mut().for_each(|f| *f = None);
             self.current = Some(frame.sequence);
         }
-        for f in Finger::ALL {
-            let r = self.fingers[f.index()];
-            if r.module != module {
-                continue;
-            }
-            match frame.taxels().get(r.taxel as usize) {
-                Some(v) => self.filled[f.index()] = Some(*v),
-                None => self.short = Some((module, r.taxel, frame.taxels().len())),
-            }
+        let taxels = self.sensors[slot].1;
+        match frame.taxels().get(..taxels) {
+            Some(values) => self.filled[slot] = Some(values.to_vec()),
+            None => self.short = Some((module, taxels, frame.taxels().len())),
         }
-        if let [Some(a), Some(b), Some(c)] = self.filled {
-            self.filled = [None; 3];
+        if self.filled.iter().all(Option::is_some) {
+            let scan = self.filled.iter_mut().flat_map(|f| f.take().unwrap_or_default()).collect();
             self.current = None;
-            return Some((frame.sequence, [a, b, c]));
+            return Some((frame.sequence, scan));
         }
         None
     }
 
-    /// Scans dropped because a frame was missing.
+    /// Scans dropped because a module's frame was missing.
     pub fn incomplete_scans(&self) -> u64 {
         self.incomplete
     }
 
-    /// `(module, mapped taxel, taxels in its frames)` when a module's frames
-    /// are too short for the taxel the map names.
-    pub fn short_module(&self) -> Option<(u32, u32, usize)> {
+    /// `(module, taxels needed, taxels in its frames)` of a module whose
+    /// frames are too short for its sensor, if one was seen.
+    pub fn short_module(&self) -> Option<(u32, usize, usize)> {
         self.short
     }
 }
@@ -114,12 +100,9 @@ impl SequenceUnwrapper {
 mod tests {
     use super::*;
 
-    fn map() -> PerFinger<TaxelRef> {
-        PerFinger {
-            thumb: TaxelRef { module: 0, taxel: 3 },
-            index: TaxelRef { module: 2, taxel: 0 },
-            middle: TaxelRef { module: 2, taxel: 1 },
-        }
+    /// Sensors on modules 0 (4 taxels) and 2 (2 taxels).
+    fn sensors() -> Vec<(u32, usize)> {
+        vec![(0, 4), (2, 2)]
     }
 
     fn frame(module: u8, sequence: u16) -> ModuleFrame {
@@ -128,36 +111,32 @@ mod tests {
     }
 
     #[test]
-    fn a_scan_completes_when_every_mapped_module_has_sent_its_frame() {
-        let mut a = ModuleScanAssembler::new(&map());
+    fn a_scan_completes_when_every_configured_module_has_sent_its_frame() {
+        let mut a = ModuleScanAssembler::new(&sensors());
         assert_eq!(a.push(&frame(0, 5)), None);
-        assert_eq!(a.push(&frame(1, 5)), None, "module 1 is not mapped");
-        assert_eq!(a.push(&frame(2, 5)), Some((5, [[3, 5, 7], [200, 5, 7], [201, 5, 7]])));
-        // The other order works too.
+        assert_eq!(a.push(&frame(1, 5)), None, "module 1 is not configured");
+        let scan = vec![[0, 5, 7], [1, 5, 7], [2, 5, 7], [3, 5, 7], [200, 5, 7], [201, 5, 7]];
+        assert_eq!(a.push(&frame(2, 5)), Some((5, scan)));
         assert_eq!(a.push(&frame(2, 6)), None);
-        assert_eq!(a.push(&frame(0, 6)), Some((6, [[3, 6, 7], [200, 6, 7], [201, 6, 7]])));
+        assert_eq!(a.push(&frame(0, 6)).map(|(s, v)| (s, v.len())), Some((6, 6)), "in sensor order");
         assert_eq!(a.incomplete_scans(), 0);
     }
 
     #[test]
     fn a_missing_frame_drops_the_scan_and_counts_it() {
-        let mut a = ModuleScanAssembler::new(&map());
+        let mut a = ModuleScanAssembler::new(&sensors());
         assert_eq!(a.push(&frame(0, 1)), None);
-        // Module 2's frame of scan 1 was lost.
         assert_eq!(a.push(&frame(0, 2)), None);
         assert_eq!(a.incomplete_scans(), 1);
         assert!(a.push(&frame(2, 2)).is_some());
-        // A late frame of an old scan starts a scan that cannot complete.
         assert_eq!(a.push(&frame(2, 1)), None);
         assert_eq!(a.push(&frame(0, 3)), None);
         assert_eq!(a.incomplete_scans(), 2);
     }
 
     #[test]
-    fn a_frame_too_short_for_the_map_is_reported() {
-        let mut m = map();
-        m.thumb.taxel = 9;
-        let mut a = ModuleScanAssembler::new(&m);
+    fn a_frame_too_short_for_its_sensor_is_reported() {
+        let mut a = ModuleScanAssembler::new(&[(0, 9), (2, 2)]);
         assert_eq!(a.push(&frame(0, 1)), None);
         assert_eq!(a.push(&frame(2, 1)), None);
         assert_eq!(a.short_module(), Some((0, 9, 4)));

@@ -9,13 +9,13 @@ use std::time::{Duration, Instant};
 
 use serialport::{ClearBuffer, SerialPort, TTYPort};
 use slidetrack_core::{
-    Clock, DecoderCounters, DeviceError, ErrorKind, PerFinger, TactileInfo, TactileSample, TactileSource,
-    TaxelRef,
+    Clock, DecoderCounters, DeviceError, ErrorKind, TactileInfo, TactileSample, TactileSource,
 };
 
 use crate::config::SerialTactileConfig;
 use crate::io_error_kind;
 use crate::scan::{ModuleScanAssembler, SequenceUnwrapper};
+use crate::sensors::{module_taxels, tactile_info};
 use crate::serial_protocol::{SerialDecoder, SerialEvent};
 
 /// Bytes read from the port at a time.
@@ -25,8 +25,7 @@ const READ_CHUNK: usize = 4096;
 pub struct SerialTactile {
     port: TTYPort,
     device: String,
-    rate_hz: f64,
-    fingers: PerFinger<TaxelRef>,
+    info: TactileInfo,
     decoder: SerialDecoder,
     assembler: ModuleScanAssembler,
     unwrapper: SequenceUnwrapper,
@@ -57,10 +56,9 @@ impl SerialTactile {
         Ok(SerialTactile {
             port,
             device: path.to_string(),
-            rate_hz,
-            fingers: cfg.fingers,
+            info: tactile_info(path, rate_hz, &cfg.sensors, &cfg.fingers),
             decoder: SerialDecoder::new(),
-            assembler: ModuleScanAssembler::new(&cfg.fingers),
+            assembler: ModuleScanAssembler::new(&module_taxels(&cfg.sensors)),
             unwrapper: SequenceUnwrapper::default(),
             clock,
             timeout: Duration::from_millis(cfg.timeout_ms),
@@ -87,8 +85,8 @@ impl SerialTactile {
             format!("no data within {waited_ms} ms: is the sensor powered and streaming?")
         } else if let Some((module, taxel, have)) = self.assembler.short_module() {
             format!(
-                "no complete scan within {waited_ms} ms: the map reads taxel {taxel} of module {module}, \
-                 whose frames carry {have} taxels"
+                "no complete scan within {waited_ms} ms: a sensor reads {taxel} taxels of module {module}, \
+                 whose frames carry {have}"
             )
         } else {
             format!("no complete scan within {waited_ms} ms ({})", self.counters_now())
@@ -180,7 +178,7 @@ impl TactileSource for SerialTactile {
     }
 
     fn info(&self) -> TactileInfo {
-        TactileInfo { device: self.device.clone(), rate_hz: self.rate_hz, taxels: Some(self.fingers) }
+        self.info.clone()
     }
 
     fn counters(&self) -> Option<DecoderCounters> {

@@ -5,17 +5,18 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use serde::Deserialize;
-use slidetrack_core::TimeNs;
-use slidetrack_session::{ChannelMessage, MessageReader, ProtocolEvent, ReadOptions, TactileZeroed};
+
+use crate::channels::recorded_tactile;
+use slidetrack_core::{TactileInfo, TimeNs};
+use slidetrack_session::{
+    ChannelMessage, MessageReader, ProtocolEvent, ReadOptions, SessionInfo, TactileRaw, TactileZeroed,
+    scan_of,
+};
 
 /// Topic of the ground truth written by `slidetrack label`.
 pub const GROUND_TRUTH_TOPIC: &str = "/ground_truth/sliding";
 /// Topic of the simulator's truth.
 pub const SIM_TRUTH_TOPIC: &str = "/sim/truth";
-
-/// The nine tactile channels in the order of `/tactile/zeroed`.
-pub const ALL_CHANNELS: [&str; 9] =
-    ["thumb.x", "thumb.y", "thumb.z", "index.x", "index.y", "index.z", "middle.x", "middle.y", "middle.z"];
 
 /// A channel set of Table 6.2.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -37,10 +38,7 @@ impl ChannelSet {
             ChannelSet::Xy => &["x", "y"],
             ChannelSet::Z => &["z"],
         };
-        ["thumb", "index", "middle"]
-            .iter()
-            .flat_map(|f| axes.iter().map(move |a| format!("{f}.{a}")))
-            .collect()
+        crate::channels::finger_channels(axes)
     }
 
     /// `xyz`, `xy` or `z`.
@@ -51,18 +49,6 @@ impl ChannelSet {
             ChannelSet::Z => "z",
         }
     }
-}
-
-/// Indices into [`ALL_CHANNELS`] of the named channels.
-pub fn channel_indices(names: &[String]) -> Result<Vec<usize>> {
-    names
-        .iter()
-        .map(|n| {
-            ALL_CHANNELS.iter().position(|c| c == n).with_context(|| {
-                format!("unknown tactile channel `{n}` (known: {})", ALL_CHANNELS.join(", "))
-            })
-        })
-        .collect()
 }
 
 /// Which truth to train and score against.
@@ -98,8 +84,11 @@ pub struct SessionData {
     pub path: PathBuf,
     /// Scan times.
     pub times: Vec<TimeNs>,
-    /// All nine baseline-subtracted channels per scan (counts).
-    pub zeroed: Vec<[f64; 9]>,
+    /// The tactile source that recorded it (from the `/tactile/raw` layout).
+    pub tactile: TactileInfo,
+    /// Baseline-subtracted values of every taxel of every scan (counts),
+    /// scan after scan, `tactile.layout.taxel_count()` taxels each.
+    pub zeroed: Vec<[f64; 3]>,
     /// Truth per scan, `(p, v)` (m, m/s), when the session has it.
     pub truth: Option<Vec<[f64; 2]>>,
     /// The tactile scan rate (Hz), from the scan times.
@@ -110,7 +99,9 @@ pub struct SessionData {
 #[derive(Default)]
 struct Recorded {
     release: Option<TimeNs>,
-    zeroed: Vec<(TimeNs, [f64; 9])>,
+    tactile: Option<TactileInfo>,
+    times: Vec<TimeNs>,
+    zeroed: Vec<[f64; 3]>,
     truth: Vec<(TimeNs, [f64; 2])>,
 }
 
@@ -120,7 +111,8 @@ fn read_recorded(path: &Path, truth_topic: Option<&str>) -> Result<(Recorded, Ve
     let mut topics = vec![ProtocolEvent::TOPIC, TactileZeroed::TOPIC];
     topics.extend(truth_topic);
     let mut reader = MessageReader::open(path, &topics, ReadOptions::default())?;
-    let mut out = Recorded::default();
+    let info = SessionInfo::read(path, ReadOptions::default())?;
+    let mut out = Recorded { tactile: recorded_tactile(path, &info)?, ..Recorded::default() };
     for message in reader.by_ref() {
         let m = message?;
         let t = m.log_time;
@@ -134,8 +126,9 @@ fn read_recorded(path: &Path, truth_topic: Option<&str>) -> Result<(Recorded, Ve
             }
             TactileZeroed::TOPIC => {
                 let z: TactileZeroed = serde_json::from_slice(&m.data).with_context(what)?;
-                let [a, b, c] = z.counts.into_array().map(|xyz| xyz.to_array());
-                out.zeroed.push((t, [a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]]));
+                let layout = &out.tactile.as_ref().with_context(what)?.layout;
+                out.zeroed.extend(scan_of(layout, &z.sensors).with_context(what)?);
+                out.times.push(t);
             }
             _ => {
                 let r: PositionVelocity = serde_json::from_slice(&m.data).with_context(what)?;
@@ -154,12 +147,16 @@ pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
     if !declared.iter().any(|t| t == TactileZeroed::TOPIC) {
         bail!("{}: no baseline-subtracted tactile data ({})", path.display(), TactileZeroed::TOPIC);
     }
+    let tactile =
+        recorded.tactile.with_context(|| format!("{}: no {}", path.display(), TactileRaw::TOPIC))?;
     let end = recorded.release.unwrap_or(TimeNs(u64::MAX));
-    let zeroed: Vec<_> = recorded.zeroed.into_iter().filter(|(t, _)| *t < end).collect();
-    if zeroed.len() < 10 {
-        bail!("{}: only {} tactile scans before the release", path.display(), zeroed.len());
+    let scans = recorded.times.iter().take_while(|t| **t < end).count();
+    if scans < 10 {
+        bail!("{}: only {scans} tactile scans before the release", path.display());
     }
-    let (times, values): (Vec<TimeNs>, Vec<[f64; 9]>) = zeroed.into_iter().unzip();
+    let times = recorded.times[..scans].to_vec();
+    let mut values = recorded.zeroed;
+    values.truncate(scans * tactile.layout.taxel_count());
     let span_s = times[times.len() - 1].secs_since(times[0]);
     let rate_hz = (times.len() - 1) as f64 / span_s.max(1e-9);
     let truth = match truth {
@@ -181,7 +178,14 @@ pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
             })?)
         }
     };
-    Ok(SessionData { path: path.to_path_buf(), times, zeroed: values, truth, rate_hz })
+    Ok(SessionData { path: path.to_path_buf(), times, tactile, zeroed: values, truth, rate_hz })
+}
+
+impl SessionData {
+    /// The baseline-subtracted taxels of every scan, in scan order.
+    pub fn scans(&self) -> std::slice::ChunksExact<'_, [f64; 3]> {
+        self.zeroed.chunks_exact(self.tactile.layout.taxel_count().max(1))
+    }
 }
 
 /// The `.mcap` files named, directories expanded (sorted).

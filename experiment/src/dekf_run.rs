@@ -6,13 +6,14 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use serde::Serialize;
-use slidetrack_core::TimeNs;
+use slidetrack_core::{TactileInfo, TimeNs};
 use slidetrack_estimators::dekf::{DekfInput, DekfModel, DekfOutput, DekfTracker, Measurement, Sequence};
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
 use slidetrack_estimators::metrics::RunningRms;
 use slidetrack_session::{DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate};
 
-use crate::dataset::{SessionData, channel_indices};
+use crate::channels::ChannelPicker;
+use crate::dataset::SessionData;
 
 /// Metres to centimetres.
 pub const CM: f64 = 100.0;
@@ -36,19 +37,18 @@ pub fn inputs(
     filter: DerivativeFilterConfig,
     decimation: usize,
 ) -> Result<Inputs> {
-    let idx = channel_indices(channels)?;
-    let mut input = DekfInput::new(measurement, filter, idx.len(), decimation);
+    let picker = ChannelPicker::new(channels, &session.tactile)
+        .with_context(|| format!("{}: the channels {}", session.path.display(), channels.join(", ")))?;
+    let mut input = DekfInput::new(measurement, filter, picker.len(), decimation);
     let mut out = Inputs {
         times: Vec::new(),
         measurements: Vec::new(),
         truth: session.truth.as_ref().map(|_| Vec::new()),
     };
     let origin = session.truth.as_ref().map(|t| t[0]);
-    let mut values = vec![0.0; idx.len()];
-    for (k, (t, z)) in session.times.iter().zip(&session.zeroed).enumerate() {
-        for (v, &i) in values.iter_mut().zip(&idx) {
-            *v = z[i];
-        }
+    let mut values = vec![0.0; picker.len()];
+    for (k, (t, z)) in session.times.iter().zip(session.scans()).enumerate() {
+        picker.pick(z, &mut values);
         let Some(step) = input.on_scan(t.as_secs_f64(), &values) else { continue };
         out.times.push(*t);
         out.measurements.push(step.measurement);
@@ -100,8 +100,9 @@ pub fn sequence(model: &DekfModel, inputs: &Inputs) -> Result<Sequence> {
 
 /// Checks that `model` can run on `session`.
 pub fn check_compatible(model: &DekfModel, session: &SessionData) -> Result<()> {
-    channel_indices(&model.meta.channels)
-        .context("the model's channels do not match the session's tactile channels")?;
+    ChannelPicker::new(&model.meta.channels, &session.tactile).with_context(|| {
+        format!("{}: the model's channels do not match the session's tactile sensors", session.path.display())
+    })?;
     let expected = model.meta.tactile_rate_hz;
     if (session.rate_hz - expected).abs() > 0.05 * expected {
         bail!(
@@ -120,24 +121,22 @@ pub fn check_compatible(model: &DekfModel, session: &SessionData) -> Result<()> 
 /// filter). Live tracking, replays and scoring all step the dEKF through it.
 pub struct DekfStage {
     tracker: DekfTracker,
-    channels: Vec<usize>,
+    channels: ChannelPicker,
     values: Vec<f64>,
 }
 
 impl DekfStage {
-    /// The stage of `model`; fails when its channels are not tactile channels.
-    pub fn new(model: &DekfModel) -> Result<DekfStage> {
-        let channels = channel_indices(&model.meta.channels)?;
+    /// The stage of `model` on scans of `tactile`; fails when the model's
+    /// channels do not resolve against its layout.
+    pub fn new(model: &DekfModel, tactile: &TactileInfo) -> Result<DekfStage> {
+        let channels = ChannelPicker::new(&model.meta.channels, tactile)?;
         Ok(DekfStage { tracker: DekfTracker::new(model), values: vec![0.0; channels.len()], channels })
     }
 
-    /// One scan at `t`: the nine baseline-subtracted channels (counts) in
-    /// the order of [`ALL_CHANNELS`](crate::dataset::ALL_CHANNELS). Returns the
-    /// estimate at filter steps.
-    pub fn on_scan(&mut self, t: TimeNs, zeroed: &[f64; 9]) -> Option<DekfOutput> {
-        for (v, &i) in self.values.iter_mut().zip(&self.channels) {
-            *v = zeroed[i];
-        }
+    /// One scan at `t`: the baseline-subtracted values of every taxel
+    /// (counts, layout order). Returns the estimate at filter steps.
+    pub fn on_scan(&mut self, t: TimeNs, zeroed: &[[f64; 3]]) -> Option<DekfOutput> {
+        self.channels.pick(zeroed, &mut self.values);
         self.tracker.on_scan(t.as_secs_f64(), &self.values)
     }
 }
@@ -147,11 +146,11 @@ impl DekfStage {
 /// epoch selection; sessions are replayed through [`crate::replay`]).
 pub fn run(model: &DekfModel, session: &SessionData) -> Result<Vec<(TimeNs, DekfOutput)>> {
     check_compatible(model, session)?;
-    let mut stage = DekfStage::new(model)?;
+    let mut stage = DekfStage::new(model, &session.tactile)?;
     Ok(session
         .times
         .iter()
-        .zip(&session.zeroed)
+        .zip(session.scans())
         .filter_map(|(t, z)| Some((*t, stage.on_scan(*t, z)?)))
         .collect())
 }

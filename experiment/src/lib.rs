@@ -1,10 +1,12 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+pub mod channels;
 pub mod dataset;
 pub mod dekf_eval;
 pub mod dekf_run;
 pub mod dekf_train;
+pub mod import;
 pub mod marker;
 pub mod observer;
 pub mod pipeline;

@@ -5,11 +5,13 @@ use std::collections::BTreeMap;
 
 use anyhow::Result;
 use slidetrack_control::{Baseline, ControlRecord, ObserverError, ProtocolEvent, Tare, TrialObserver};
-use slidetrack_core::{DecoderCounters, Frame, PerFinger, SimTruth, TactileInfo, TactileSample, TimeNs};
+use slidetrack_core::{
+    DecoderCounters, Frame, PerFinger, SimTruth, TactileInfo, TactileLayout, TactileSample, TimeNs,
+};
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelHandle, ChannelMessage, CompressedImage, FingerSetpoint,
     GraspControl, HandCommand, Logger, ProtocolEvent as EventMsg, SimTruth as TruthMsg, TactileDecoder,
-    TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz,
+    TactileRaw, TactileTare, TactileZeroed, TaxelLayout, sensor_taxels,
 };
 
 use crate::marker::MarkerSource;
@@ -53,7 +55,8 @@ struct Channels {
 /// data they receive has been recorded; an error ends the trial with a safe
 /// release, like a recording error.
 pub trait TrialExtension {
-    /// A baseline-subtracted tactile scan (counts, `[finger][x, y, z]`).
+    /// A baseline-subtracted tactile scan (counts, `[taxel][x, y, z]` in the
+    /// order of the tactile source's layout).
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError>;
     /// A camera frame and the marker position along the sliding axis found
     /// in it (m), `None` when the marker was not found.
@@ -77,6 +80,8 @@ pub struct SessionObserver<'a> {
     /// When the decoder counters were last written, and what they were.
     decoder_written: Option<(TimeNs, DecoderCounters)>,
     extension: Option<Box<dyn TrialExtension + 'a>>,
+    /// The tactile sensors, to name them in the tactile channels.
+    layout: TactileLayout,
 }
 
 impl<'a> SessionObserver<'a> {
@@ -90,7 +95,7 @@ impl<'a> SessionObserver<'a> {
         progress: Box<dyn FnMut(TimeNs) + 'a>,
     ) -> Result<SessionObserver<'a>> {
         let none = BTreeMap::new;
-        let layout = TaxelLayout::new(tactile, tactile.taxels).channel_metadata();
+        let layout = TaxelLayout::new(tactile).channel_metadata();
         let ch = Channels {
             raw: logger.register::<TactileRaw>(layout)?,
             tare: logger.register::<TactileTare>(none())?,
@@ -121,6 +126,7 @@ impl<'a> SessionObserver<'a> {
             progress,
             decoder_written: None,
             extension: None,
+            layout: tactile.layout.clone(),
         })
     }
 
@@ -152,15 +158,11 @@ impl<'a> SessionObserver<'a> {
     }
 }
 
-fn xyz3(v: [f64; 3]) -> Xyz<f64> {
-    Xyz::from_array(v)
-}
-
 impl TrialObserver for SessionObserver<'_> {
     fn on_tactile(&mut self, s: &TactileSample) -> Result<(), ObserverError> {
         self.stats.scans += 1;
         let seq = (s.sequence & u64::from(u32::MAX)) as u32;
-        self.logger.log_json(&self.ch.raw, s.t, s.t, seq, &TactileRaw::from(s))?;
+        self.logger.log_json(&self.ch.raw, s.t, s.t, seq, &TactileRaw::new(s, &self.layout))?;
         (self.progress)(s.t);
         Ok(())
     }
@@ -183,13 +185,12 @@ impl TrialObserver for SessionObserver<'_> {
     }
 
     fn on_tare(&mut self, t: TimeNs, tare: &Tare) -> Result<(), ObserverError> {
-        let msg =
-            TactileTare { samples: tare.scans, baseline: PerFinger::from_array(tare.baseline.map(xyz3)) };
+        let msg = TactileTare { samples: tare.scans, baseline: sensor_taxels(&self.layout, &tare.baseline) };
         self.log(&self.ch.tare, t, &msg)
     }
 
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
-        self.log(&self.ch.zeroed, t, &TactileZeroed { counts: PerFinger::from_array(zeroed.map(xyz3)) })?;
+        self.log(&self.ch.zeroed, t, &TactileZeroed { sensors: sensor_taxels(&self.layout, zeroed) })?;
         match self.extension.as_mut() {
             Some(x) => x.on_zeroed(t, zeroed),
             None => Ok(()),

@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::Result;
 use nalgebra::SVector;
 use slidetrack_control::{Baseline, ObserverError, ProtocolEvent};
-use slidetrack_core::{Frame, Phase, SimTruth, TimeNs};
+use slidetrack_core::{Frame, Phase, SimTruth, TactileInfo, TimeNs};
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
 use slidetrack_estimators::dekf::DekfModel;
 use slidetrack_estimators::kf::Gaussian;
@@ -141,6 +141,7 @@ impl LiveTrackers {
     /// second of session time).
     pub fn new(
         logger: &Logger,
+        tactile: &TactileInfo,
         model: &DekfModel,
         model_name: &str,
         marker: Option<CvSmootherParams>,
@@ -166,7 +167,7 @@ impl LiveTrackers {
         };
         Ok(LiveTrackers {
             logger: logger.clone(),
-            dekf: DekfStage::new(model)?,
+            dekf: DekfStage::new(model, tactile)?,
             derivative_ch: logger.register::<TactileDerivative>(derivative_meta)?,
             dekf_ch: logger.register::<DekfEstimate>(estimate_meta)?,
             marker,
@@ -249,7 +250,7 @@ impl LiveTrackers {
 
 impl TrialExtension for LiveTrackers {
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
-        let Some(out) = self.dekf.on_scan(t, zeroed.as_flattened().try_into()?) else { return Ok(()) };
+        let Some(out) = self.dekf.on_scan(t, zeroed) else { return Ok(()) };
         let msg = TactileDerivative { values: out.measurement.clone() };
         self.logger.log_json(&self.derivative_ch, t, t, 0, &msg)?;
         self.logger.log_json(&self.dekf_ch, t, t, 0, &estimate_message(&out))?;

@@ -6,8 +6,8 @@ use std::time::{Instant, SystemTime};
 
 use anyhow::{Context, Result};
 use slidetrack_control::{TrialOutcome, run_trial};
-use slidetrack_core::TimeNs;
-use slidetrack_session::{Logger, Recorder, RecorderOptions, SessionMetadata};
+use slidetrack_core::{TactileInfo, TimeNs};
+use slidetrack_session::{Logger, Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TaxelLayout};
 use slidetrack_sim::sliding_episodes;
 
 use crate::observer::{SessionObserver, TrialExtension, TrialStats};
@@ -102,7 +102,8 @@ pub fn record_trial(
 
 /// Makes the live extension of a trial from the trial's logger (it registers
 /// its own channels there).
-pub type ExtensionFactory<'a> = Box<dyn FnOnce(&Logger) -> Result<Box<dyn TrialExtension + 'a>> + 'a>;
+pub type ExtensionFactory<'a> =
+    Box<dyn FnOnce(&Logger, &TactileInfo) -> Result<Box<dyn TrialExtension + 'a>> + 'a>;
 
 /// [`record_trial`] with a live extension (the trackers of `track`).
 pub fn record_trial_with<'a>(
@@ -128,15 +129,17 @@ pub fn record_trial_with<'a>(
     let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
     let mut metadata = metadata.to_map();
     metadata.insert(CYCLES_DURATION_KEY.into(), spec.duration_s.to_string());
+    metadata.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(&tactile_info).to_json());
     metadata.extend(extra_metadata);
     let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
     let with_truth = rig.truth.is_some();
     let mut observer =
         SessionObserver::new(recorder.logger(), &tactile_info, markers, with_truth, Box::new(progress))?;
     if let Some(make) = extension {
-        observer = observer.with_extension(make(&recorder.logger())?);
+        observer = observer.with_extension(make(&recorder.logger(), &tactile_info)?);
     }
-    let mut protocol = protocol_for(spec.rig, object, spec.duration_s);
+    let fingers = tactile_info.finger_map().context("the tactile source's layout")?;
+    let mut protocol = protocol_for(spec.rig, object, spec.duration_s, fingers);
     let outcome = run_trial(&mut rig, &mut protocol, &mut observer, stop);
     let stats = observer.stats().clone();
     drop(observer);

@@ -9,7 +9,10 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-use slidetrack_core::{Finger, PerFinger, Phase, TactileInfo, TactileSample, TaxelRef};
+use slidetrack_core::{
+    FingerReading, LayoutError, PerFinger, Phase, RawTaxel, SensorLayout, TactileInfo, TactileLayout,
+    TactileSample,
+};
 
 use super::schema::{Fingers, PhaseName, derived, describe_fingers};
 
@@ -65,22 +68,71 @@ impl<T: Copy> Xyz<T> {
     }
 }
 
-/// `/tactile/raw`: one scan of the three fingertip modules, raw counts as the
-/// device sent them (never tared, never overwritten).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
-#[schemars(transform = describe_fingers("raw counts of the {finger} module (0-65535)"))]
+/// The values of one sensor's taxels.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct SensorValues<T> {
+    /// The sensor's name in the tactile layout.
+    pub name: String,
+    /// One value per taxel, in the layout's taxel order (row by row).
+    pub taxels: Vec<Xyz<T>>,
+}
+
+/// Values of every taxel of every sensor, sensors in layout order:
+/// `[{"name": "thumb", "taxels": [{"x": .., "y": .., "z": ..}, ..]}, ..]`.
+pub type SensorTaxels<T> = Vec<SensorValues<T>>;
+
+/// Splits a scan (`[taxel][x, y, z]` in layout order) into its sensors.
+pub fn sensor_taxels<T: Copy>(layout: &TactileLayout, scan: &[[T; 3]]) -> SensorTaxels<T> {
+    layout
+        .sensor_ranges()
+        .map(|(sensor, range)| SensorValues {
+            name: sensor.name.clone(),
+            taxels: scan.get(range).unwrap_or(&[]).iter().map(|v| Xyz::from_array(*v)).collect(),
+        })
+        .collect()
+}
+
+/// Joins per-sensor values back into a scan in layout order; an error
+/// names the sensor that is missing or has the wrong number of taxels.
+pub fn scan_of<T: Copy>(
+    layout: &TactileLayout,
+    sensors: &[SensorValues<T>],
+) -> Result<Vec<[T; 3]>, LayoutError> {
+    let mut scan = Vec::with_capacity(layout.taxel_count());
+    for sensor in &layout.sensors {
+        let taxels = sensors.iter().find(|s| s.name == sensor.name).map_or(&[][..], |s| s.taxels.as_slice());
+        if taxels.len() != sensor.taxels() {
+            return Err(LayoutError::SensorSize {
+                name: sensor.name.clone(),
+                expected: sensor.taxels(),
+                got: taxels.len(),
+            });
+        }
+        scan.extend(taxels.iter().map(|v| v.to_array()));
+    }
+    Ok(scan)
+}
+
+/// `/tactile/raw`: one scan of every taxel of every tactile sensor, raw
+/// counts as the device sent them (never tared, never overwritten).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TactileRaw {
     /// The device's own scan counter.
     pub sequence: u64,
-    /// Raw counts per finger and axis.
-    #[serde(flatten)]
-    #[schemars(with = "Fingers<Xyz<u16>>")]
-    pub counts: PerFinger<Xyz<u16>>,
+    /// Raw counts (0-65535) of every taxel, per sensor in layout order
+    /// (names and taxel grids in the channel's [`TaxelLayout`]).
+    pub sensors: SensorTaxels<u16>,
 }
 
-impl From<&TactileSample> for TactileRaw {
-    fn from(s: &TactileSample) -> TactileRaw {
-        TactileRaw { sequence: s.sequence, counts: PerFinger::from_array(s.raw.map(Xyz::from_array)) }
+impl TactileRaw {
+    /// The message of `sample`, a scan of `layout`.
+    pub fn new(sample: &TactileSample, layout: &TactileLayout) -> TactileRaw {
+        TactileRaw { sequence: sample.sequence, sensors: sensor_taxels(layout, &sample.raw) }
+    }
+
+    /// The scan (raw counts of every taxel in `layout` order).
+    pub fn scan(&self, layout: &TactileLayout) -> Result<Vec<RawTaxel>, LayoutError> {
+        scan_of(layout, &self.sensors)
     }
 }
 
@@ -92,48 +144,62 @@ impl ChannelMessage for TactileRaw {
     }
 }
 
-/// Channel metadata key of `/tactile/raw` holding the [`TaxelLayout`] as JSON.
+/// Channel metadata key of `/tactile/raw` (and session metadata key) holding
+/// the [`TaxelLayout`] as JSON.
 pub const TAXEL_LAYOUT_KEY: &str = "taxel_layout";
 
 /// The layout of the tactile channels, stored as JSON in the `/tactile/raw`
-/// channel metadata under [`TAXEL_LAYOUT_KEY`].
+/// channel metadata and in the session metadata under [`TAXEL_LAYOUT_KEY`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TaxelLayout {
     /// The device that produced the counts (`sim`, `/dev/ttyACM0`, `can0`).
     pub device: String,
     /// Nominal scan rate (Hz).
     pub rate_hz: f64,
-    /// Finger names, in the order of every per-finger array.
-    pub fingers: Vec<String>,
-    /// Axis names of each module, in the order of raw arrays.
+    /// Axis names of each taxel, in the order of raw arrays.
     pub axes: Vec<String>,
-    /// Module and taxel per finger.
-    pub taxels: PerFinger<TaxelRef>,
+    /// The sensors, in scan order: name, model, finger, taxel grid.
+    pub sensors: Vec<SensorLayout>,
+    /// What each finger's reading (the controller's z, the `finger.axis`
+    /// dEKF channels) is made of.
+    pub fingers: PerFinger<FingerReading>,
 }
 
 impl TaxelLayout {
-    /// The layout of `info`'s device, with one module per finger (module
-    /// `0, 1, 2` for thumb, index, middle, taxel 0 each) unless `taxels` says otherwise.
-    pub fn new(info: &TactileInfo, taxels: Option<PerFinger<TaxelRef>>) -> TaxelLayout {
+    /// The layout of `info`'s device.
+    pub fn new(info: &TactileInfo) -> TaxelLayout {
         TaxelLayout {
             device: info.device.clone(),
             rate_hz: info.rate_hz,
-            fingers: Finger::ALL.iter().map(|f| f.name().to_string()).collect(),
             axes: slidetrack_core::AXES.iter().map(|a| a.to_string()).collect(),
-            taxels: taxels
-                .unwrap_or_else(|| PerFinger::from_fn(|f| TaxelRef { module: f.index() as u32, taxel: 0 })),
+            sensors: info.layout.sensors.clone(),
+            fingers: info.fingers.clone(),
         }
+    }
+
+    /// The tactile source this layout describes.
+    pub fn info(&self) -> TactileInfo {
+        TactileInfo {
+            device: self.device.clone(),
+            rate_hz: self.rate_hz,
+            layout: TactileLayout { sensors: self.sensors.clone() },
+            fingers: self.fingers.clone(),
+        }
+    }
+
+    /// As JSON.
+    pub fn to_json(&self) -> String {
+        // Serializing plain strings and numbers to a String cannot fail.
+        serde_json::to_string(self).unwrap_or_default()
     }
 
     /// The channel metadata map holding this layout.
     pub fn channel_metadata(&self) -> BTreeMap<String, String> {
-        // Serializing plain strings and numbers to a String cannot fail.
-        let json = serde_json::to_string(self).unwrap_or_default();
-        BTreeMap::from([(TAXEL_LAYOUT_KEY.to_string(), json)])
+        BTreeMap::from([(TAXEL_LAYOUT_KEY.to_string(), self.to_json())])
     }
 
-    /// The layout stored in channel metadata: `None` without the key, an
-    /// error when its JSON does not decode.
+    /// The layout stored in channel (or session) metadata: `None` without
+    /// the key, an error when its JSON does not decode.
     pub fn from_channel_metadata(
         metadata: &BTreeMap<String, String>,
     ) -> Option<Result<TaxelLayout, serde_json::Error>> {
@@ -143,13 +209,12 @@ impl TaxelLayout {
 
 /// `/tactile/tare`: the baseline was (re)zeroed. Later `/tactile/zeroed`
 /// messages subtract this baseline.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TactileTare {
     /// Scans averaged into the baseline.
     pub samples: u32,
-    /// Baseline per finger and axis: the mean raw value (counts).
-    #[schemars(with = "Fingers<Xyz<f64>>")]
-    pub baseline: PerFinger<Xyz<f64>>,
+    /// Baseline of every taxel, per sensor in layout order: the mean raw value (counts).
+    pub baseline: SensorTaxels<f64>,
 }
 
 impl ChannelMessage for TactileTare {
@@ -160,14 +225,12 @@ impl ChannelMessage for TactileTare {
     }
 }
 
-/// `/tactile/zeroed`: one scan minus the current baseline (counts).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(transparent)]
-#[schemars(transform = describe_fingers("{finger} module, raw counts minus the baseline (counts)"))]
+/// `/tactile/zeroed`: one scan minus the current baseline (counts), every
+/// taxel, per sensor.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct TactileZeroed {
-    /// Counts minus baseline, per finger and axis.
-    #[schemars(with = "Fingers<Xyz<f64>>")]
-    pub counts: PerFinger<Xyz<f64>>,
+    /// Counts minus baseline of every taxel, per sensor in layout order.
+    pub sensors: SensorTaxels<f64>,
 }
 
 impl ChannelMessage for TactileZeroed {

@@ -4,12 +4,13 @@
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use slidetrack_core::{
-    Clock, DeviceError, ErrorKind, FingerVolts, HandActuator, SimTruth, TactileInfo, TactileSample,
-    TactileSource, TimeNs, TruthSource, saturate,
+    Clock, DeviceError, ErrorKind, Finger, FingerReading, FingerVolts, HandActuator, PerFinger, SensorLayout,
+    SimTruth, TactileInfo, TactileLayout, TactileSample, TactileSource, TimeNs, TruthSource, saturate,
 };
 
 use super::config::SimRigConfig;
 use super::object::ObjectConfig;
+use super::tactile_model::PatchConfig;
 use super::world::SimWorld;
 
 /// The world shared by the simulated devices of one trial.
@@ -50,6 +51,7 @@ impl SimDevices {
                 clock,
                 period_ns: 1e9 / cfg.tactile_rate_hz,
                 rate_hz: cfg.tactile_rate_hz,
+                patch: cfg.tactile.patch,
                 sequence: 0,
                 truth: slot.clone(),
             },
@@ -70,8 +72,29 @@ pub struct SimTactile {
     clock: Arc<dyn Clock>,
     period_ns: f64,
     rate_hz: f64,
+    patch: Option<PatchConfig>,
     sequence: u64,
     truth: Arc<Mutex<Option<SimTruth>>>,
+}
+
+/// What the simulated tactile source is: the thesis's single module per
+/// finger (the controller and the `finger.axis` channels read it), or a
+/// patch per fingertip (named after its finger; readings are patch means).
+pub fn sim_tactile_info(patch: Option<&PatchConfig>, rate_hz: f64) -> TactileInfo {
+    let Some(p) = patch else { return TactileInfo::one_module_per_finger("sim", rate_hz, "sim") };
+    let sensors = Finger::ALL
+        .iter()
+        .map(|f| SensorLayout {
+            taxel_positions_mm: Some(p.taxel_positions_mm()),
+            ..SensorLayout::grid(f.name(), "sim-patch", f.name(), p.rows, p.cols)
+        })
+        .collect();
+    TactileInfo {
+        device: "sim".into(),
+        rate_hz,
+        layout: TactileLayout { sensors },
+        fingers: PerFinger::from_fn(|f| FingerReading::mean(f.name())),
+    }
 }
 
 impl TactileSource for SimTactile {
@@ -92,7 +115,7 @@ impl TactileSource for SimTactile {
     }
 
     fn info(&self) -> TactileInfo {
-        TactileInfo { device: "sim".into(), rate_hz: self.rate_hz, taxels: None }
+        sim_tactile_info(self.patch.as_ref(), self.rate_hz)
     }
 }
 

@@ -51,6 +51,52 @@ pub struct TactileModelConfig {
     pub spike_probability: f64,
     /// Spike size range `[lo, hi]` (counts, random sign).
     pub spike_counts: [f64; 2],
+    /// A patch of taxels per fingertip instead of the thesis's single module
+    /// (`None`, the default).
+    pub patch: Option<PatchConfig>,
+}
+
+/// A fingertip patch of `rows x cols` taxels (like XELA's uSPa44: 4 x 4),
+/// each its own module, with the contact spread over them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PatchConfig {
+    /// Rows of taxels.
+    pub rows: u32,
+    /// Columns of taxels.
+    pub cols: u32,
+    /// Distance between neighbouring taxel centres (mm).
+    pub pitch_mm: f64,
+    /// Standard deviation of the contact's footprint around the patch centre (mm).
+    pub contact_sigma_mm: f64,
+}
+
+impl PatchConfig {
+    /// Taxel centres (mm) from the patch centre, row by row.
+    pub fn taxel_positions_mm(&self) -> Vec<[f64; 2]> {
+        let half = |n: u32| (f64::from(n) - 1.0) / 2.0;
+        (0..self.rows)
+            .flat_map(|r| {
+                (0..self.cols).map(move |c| {
+                    [
+                        (f64::from(c) - half(self.cols)) * self.pitch_mm,
+                        (f64::from(r) - half(self.rows)) * self.pitch_mm,
+                    ]
+                })
+            })
+            .collect()
+    }
+
+    /// The share of the contact's field each taxel feels: a Gaussian
+    /// footprint, scaled so the weights average to 1 (the mean of the patch
+    /// then feels what the thesis's single module feels).
+    pub fn taxel_weights(&self) -> Vec<f64> {
+        let s2 = 2.0 * self.contact_sigma_mm.max(1e-6).powi(2);
+        let w: Vec<f64> =
+            self.taxel_positions_mm().iter().map(|[x, y]| (-(x * x + y * y) / s2).exp()).collect();
+        let mean = w.iter().sum::<f64>() / w.len().max(1) as f64;
+        w.iter().map(|v| v / mean).collect()
+    }
 }
 
 impl Default for TactileModelConfig {
@@ -72,6 +118,7 @@ impl Default for TactileModelConfig {
             vibration_ref_speed_mps: 0.01,
             spike_probability: 2e-5,
             spike_counts: [400.0, 2500.0],
+            patch: None,
         }
     }
 }
@@ -155,10 +202,24 @@ impl TactileModule {
         dt_s: f64,
         rng: &mut ChaCha8Rng,
     ) -> [u16; 3] {
+        self.sample_share(cfg, d, 1.0, t_s, dt_s, rng)
+    }
+
+    /// Raw counts of one scan of a taxel that feels `share` of the contact's
+    /// field (1 for a single module; see [`PatchConfig::taxel_weights`]).
+    pub fn sample_share(
+        &mut self,
+        cfg: &TactileModelConfig,
+        d: &ContactDeformation,
+        share: f64,
+        t_s: f64,
+        dt_s: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> [u16; 3] {
         let decay = (-dt_s / cfg.drift_time_constant_s).exp();
         let drift_kick = cfg.drift_std_counts * (1.0 - decay * decay).sqrt();
         let level = (d.slip_speed_mps.abs() / cfg.vibration_ref_speed_mps).min(1.0);
-        let signal = self.sensor_from_contact * Self::field(cfg, d);
+        let signal = self.sensor_from_contact * (Self::field(cfg, d) * share);
         let mut out = [0u16; 3];
         for (i, o) in out.iter_mut().enumerate() {
             let n: f64 = StandardNormal.sample(rng);

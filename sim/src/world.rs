@@ -49,7 +49,10 @@ pub struct SimWorld {
     fingers: [FingerState; 3],
     contacts: [LuGreContact; 3],
     friction_n: [f64; 3],
-    modules: [TactileModule; 3],
+    /// Per finger, one module per taxel of its patch (one for the thesis's hand).
+    modules: [Vec<TactileModule>; 3],
+    /// The share of the contact each taxel of a patch feels.
+    taxel_shares: Vec<f64>,
     surfaces: [SurfaceProfile; 3],
     tactile_rng: ChaCha8Rng,
     volts: FingerVolts,
@@ -74,7 +77,12 @@ impl SimWorld {
         let mut jitter = |rel: f64| 1.0 + if rel > 0.0 { rng.random_range(-rel..=rel) } else { 0.0 };
         let mass_kg = object.mass_kg * jitter(j.mass_rel);
         let lugre = LuGreParams::from_config(&object.friction, jitter(j.friction_rel));
-        let modules = [0, 1, 2].map(|f| TactileModule::draw(&cfg.tactile, f, j.sensor_gain_rel, &mut rng));
+        let taxel_shares = cfg.tactile.patch.map_or_else(|| vec![1.0], |p| p.taxel_weights());
+        let modules = [0, 1, 2].map(|f| {
+            (0..taxel_shares.len())
+                .map(|_| TactileModule::draw(&cfg.tactile, f, j.sensor_gain_rel, &mut rng))
+                .collect()
+        });
         let surfaces = [0, 1, 2].map(|_| SurfaceProfile::draw(&object.surface, &mut rng));
         let dt_ns = (1e9 / cfg.physics_rate_hz).round().max(1.0) as u64;
         SimWorld {
@@ -86,6 +94,7 @@ impl SimWorld {
             contacts: [LuGreContact::default(); 3],
             friction_n: [0.0; 3],
             modules,
+            taxel_shares,
             surfaces,
             tactile_rng: ChaCha8Rng::seed_from_u64(stream_seed(seed, trial, Stream::Tactile)),
             volts: [0.0; 3],
@@ -232,13 +241,14 @@ impl SimWorld {
         }
     }
 
-    /// One scan of the three tactile modules at the current time.
-    pub fn scan_tactile(&mut self) -> [[u16; 3]; 3] {
+    /// One scan of every taxel at the current time, finger after finger
+    /// (thumb, index, middle), taxels row by row.
+    pub fn scan_tactile(&mut self) -> Vec<[u16; 3]> {
         let dt_s = (self.t_ns - self.last_scan_ns.min(self.t_ns)) as f64 * 1e-9;
         self.last_scan_ns = self.t_ns;
         let t_s = self.t_ns as f64 * 1e-9;
-        let mut raw = [[0u16; 3]; 3];
-        for (f, counts) in raw.iter_mut().enumerate() {
+        let mut raw = Vec::with_capacity(3 * self.taxel_shares.len());
+        for f in 0..3 {
             // On a sloped patch of texture the contact force leans along the
             // sliding axis and shears the pad with it.
             let (_, slope) = self.surfaces[f].height_and_slope(self.position_m);
@@ -248,13 +258,16 @@ impl SimWorld {
                 shear_m: tangential_n / self.cfg.finger(f).pad_shear_stiffness_n_per_m,
                 slip_speed_mps: if self.supported { 0.0 } else { self.velocity_mps },
             };
-            *counts = self.modules[f].sample(
-                &self.cfg.tactile,
-                &deformation,
-                t_s,
-                dt_s.max(1e-6),
-                &mut self.tactile_rng,
-            );
+            for (module, share) in self.modules[f].iter_mut().zip(&self.taxel_shares) {
+                raw.push(module.sample_share(
+                    &self.cfg.tactile,
+                    &deformation,
+                    *share,
+                    t_s,
+                    dt_s.max(1e-6),
+                    &mut self.tactile_rng,
+                ));
+            }
         }
         raw
     }

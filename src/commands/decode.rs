@@ -10,9 +10,10 @@ use std::time::SystemTime;
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use slidetrack_core::{DecoderCounters, TactileInfo, TactileSample, TimeNs};
+use slidetrack_core::{DecoderCounters, TactileInfo, TactileLayout, TactileSample, TimeNs};
 use slidetrack_drivers::config::{CanTactileConfig, HwRigConfig, SerialTactileConfig, TactileDevice};
 use slidetrack_drivers::offline::{CanLogDecoder, SerialCaptureDecoder};
+use slidetrack_drivers::sensors::tactile_info;
 use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_session::{
     ChannelHandle, Recorder, RecorderOptions, SessionMetadata, TactileDecoder, TactileRaw, TaxelLayout,
@@ -53,7 +54,7 @@ pub fn run(args: &DecodeArgs, quiet: bool) -> Result<()> {
         }
         check(TactileDevice::Can(cfg.clone()))?;
         let mut decoder = CanLogDecoder::new(reader, &cfg, args.interface.clone());
-        let info = TactileInfo { device: name.clone(), rate_hz: cfg.rate_hz, taxels: Some(cfg.fingers) };
+        let info = tactile_info(&name, cfg.rate_hz, &cfg.sensors, &cfg.fingers);
         let mut out = Output::create(args, &info, &TactileDevice::Can(cfg.clone()))?;
         while let Some(sample) = decoder.next() {
             out.scan(&sample, &decoder.counters())?;
@@ -75,7 +76,7 @@ pub fn run(args: &DecodeArgs, quiet: bool) -> Result<()> {
         cfg.rate_hz = rate_hz;
         check(TactileDevice::Serial(cfg.clone()))?;
         let mut decoder = SerialCaptureDecoder::new(reader, &cfg, rate_hz);
-        let info = TactileInfo { device: name.clone(), rate_hz, taxels: Some(cfg.fingers) };
+        let info = tactile_info(&name, rate_hz, &cfg.sensors, &cfg.fingers);
         let mut out = Output::create(args, &info, &TactileDevice::Serial(cfg.clone()))?;
         while let Some(sample) = decoder.next() {
             out.scan(&sample, &decoder.counters())?;
@@ -129,6 +130,7 @@ struct Output<'a> {
     recorder: Recorder,
     raw: ChannelHandle<TactileRaw>,
     decoder: ChannelHandle<TactileDecoder>,
+    layout: TactileLayout,
     scans: u64,
     first: Option<TimeNs>,
     last: TimeNs,
@@ -157,14 +159,25 @@ impl<'a> Output<'a> {
         };
         let options = RecorderOptions { overwrite: args.overwrite, ..RecorderOptions::default() };
         let recorder = Recorder::create_with_options(&args.out, metadata.to_map(), options)?;
-        let raw = recorder.register::<TactileRaw>(TaxelLayout::new(info, info.taxels).channel_metadata())?;
+        let raw = recorder.register::<TactileRaw>(TaxelLayout::new(info).channel_metadata())?;
         let decoder = recorder.register::<TactileDecoder>(BTreeMap::new())?;
-        Ok(Output { args, recorder, raw, decoder, scans: 0, first: None, last: TimeNs::ZERO, written: None })
+        let layout = info.layout.clone();
+        Ok(Output {
+            args,
+            recorder,
+            raw,
+            decoder,
+            layout,
+            scans: 0,
+            first: None,
+            last: TimeNs::ZERO,
+            written: None,
+        })
     }
 
     fn scan(&mut self, s: &TactileSample, counters: &DecoderCounters) -> Result<()> {
         let seq = (s.sequence & u64::from(u32::MAX)) as u32;
-        self.recorder.log_json(&self.raw, s.t, s.t, seq, &TactileRaw::from(s))?;
+        self.recorder.log_json(&self.raw, s.t, s.t, seq, &TactileRaw::new(s, &self.layout))?;
         self.scans += 1;
         self.first.get_or_insert(s.t);
         self.last = s.t;

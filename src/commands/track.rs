@@ -145,10 +145,10 @@ fn track_on(
     };
     let record_rgbd = args.record_rgbd;
     let (s, d) = (status.clone(), display.clone());
-    let extension: ExtensionFactory = Box::new(move |logger| {
+    let extension: ExtensionFactory = Box::new(move |logger, tactile| {
         let marker = with_marker.then(default_params);
         let show = Box::new(move |line: &str| d.set_message(line.to_string()));
-        let mut trackers = LiveTrackers::new(logger, &model, &model_name, marker, s, show)?;
+        let mut trackers = LiveTrackers::new(logger, tactile, &model, &model_name, marker, s, show)?;
         if let Some(v) = vision {
             trackers = trackers.with_vision(v.with_recording(logger.clone(), record_rgbd)?);
         }

@@ -10,6 +10,8 @@ use crate::can_hand::CanHand;
 use crate::can_protocol::XelaCanLayout;
 use crate::config::CanHandConfig;
 use crate::hand_can::{HandMessage, HandState};
+use crate::sensors::HwSensor;
+use slidetrack_core::{FingerReading, PerFinger};
 
 /// A bus in memory: records what is sent, serves queued frames, and can
 /// vanish (every call then fails with `ENODEV`).
@@ -56,14 +58,28 @@ impl CanBus for MemoryBus {
     }
 }
 
+fn sensor(name: &str, module: u32, rows: u32, cols: u32) -> HwSensor {
+    HwSensor {
+        name: name.into(),
+        module,
+        finger: "thumb".into(),
+        model: "test".into(),
+        rows,
+        cols,
+        taxel_positions_mm: None,
+    }
+}
+
 fn tactile_cfg() -> CanTactileConfig {
     CanTactileConfig {
         taxels: 32,
         taxels_per_module: 16,
+        // A 1x4 strip on module 0 (board taxels 0-3), a 2x5 patch on module 1 (16-25).
+        sensors: vec![sensor("strip", 0, 1, 4), sensor("patch", 1, 2, 5)],
         fingers: PerFinger {
-            thumb: TaxelRef { module: 0, taxel: 2 },
-            index: TaxelRef { module: 1, taxel: 0 },
-            middle: TaxelRef { module: 1, taxel: 9 },
+            thumb: FingerReading::taxel("strip", 2),
+            index: FingerReading::taxel("patch", 0),
+            middle: FingerReading::mean("patch"),
         },
         timeout_ms: 30,
         startup_timeout_ms: 30,
@@ -86,13 +102,16 @@ fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
     let mut tactile = CanTactile::with_bus(bus.clone(), &cfg, Arc::new(WallClock::start())).unwrap();
     assert_eq!(bus.sent(), vec![l.start_command()]);
     let a = tactile.read().unwrap();
-    assert_eq!((a.sequence, a.raw), (0, [[0, 2, 5], [0, 16, 5], [0, 25, 5]]));
-    // Scan 1's middle taxel (board taxel 25) was invalid: dropped, counted.
+    let board: Vec<u16> = (0..4).chain(16..26).collect();
+    assert_eq!(a.sequence, 0);
+    assert_eq!(a.raw, board.iter().map(|&t| [0, t, 5]).collect::<Vec<_>>(), "every taxel of both sensors");
+    // Scan 1's board taxel 25 (the patch's last) was invalid: dropped, counted.
     let b = tactile.read().unwrap();
-    assert_eq!((b.sequence, b.raw[0]), (2, [2, 2, 5]));
+    assert_eq!((b.sequence, b.raw[0]), (2, [2, 0, 5]));
     let c = tactile.counters().unwrap();
     assert_eq!((c.frames, c.invalid_samples, c.incomplete_scans), (96, 1, 1));
-    assert_eq!(tactile.info().taxels, Some(cfg.fingers));
+    let info = tactile.info();
+    assert_eq!((info.layout.taxel_count(), info.fingers), (14, cfg.fingers.clone()));
     let e = tactile.read().unwrap_err();
     assert_eq!(e.kind, ErrorKind::Timeout);
     assert!(e.detail.contains("no complete scan"), "{e}");

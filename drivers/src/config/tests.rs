@@ -24,7 +24,29 @@ interface = "can1"
 board = 2
 taxel_base_id = 0x710
 taxels = 48
-fingers = { thumb = { module = 0, taxel = 5 }, index = { module = 1, taxel = 5 }, middle = { module = 2, taxel = 6 } }
+fingers = { thumb = { sensor = "thumb", taxel = 5 }, index = { sensor = "index", taxel = 5 }, middle = { sensor = "middle" } }
+[[tactile.sensors]]
+name = "thumb"
+module = 0
+finger = "thumb"
+model = "uSPa44"
+rows = 4
+cols = 4
+[[tactile.sensors]]
+name = "index"
+module = 1
+finger = "index"
+model = "uSPa44"
+rows = 4
+cols = 4
+[[tactile.sensors]]
+name = "middle"
+module = 2
+finger = "middle"
+model = "uSPa44"
+rows = 1
+cols = 2
+taxel_positions_mm = [[0.0, 0.0], [4.7, 0.0]]
 [camera]
 kind = "v4l2"
 device = "/dev/video2"
@@ -38,7 +60,8 @@ setpoint_id = 0x310
     .unwrap();
     cfg.validate().unwrap();
     let TactileDevice::Can(c) = &cfg.tactile else { panic!("can") };
-    assert_eq!((c.board, c.taxel_base_id, c.board_taxels()), (2, 0x710, [5, 21, 38]));
+    let board: Vec<usize> = (0..16).chain(16..32).chain(32..34).collect();
+    assert_eq!((c.board, c.taxel_base_id, c.board_taxels()), (2, 0x710, board));
     let HandDevice::Can(h) = &cfg.hand else { panic!("hand") };
     assert_eq!((h.setpoint_id, h.heartbeat_id), (0x310, 0x301));
     let text = toml::to_string(&cfg).unwrap();
@@ -51,15 +74,19 @@ fn mistakes_name_the_field() {
     assert!(e.to_string().contains("baudrate"), "{e}");
     let e = parse("[tactile]\nkind = \"usb\"\n").unwrap_err();
     assert!(e.to_string().contains("usb"), "{e}");
-    let fingers = "fingers = { thumb = { module = 0, taxel = 0 }, index = { module = 1, taxel = 16 }, \
-                   middle = { module = 2, taxel = 0 } }";
+    let fingers = "fingers = { thumb = { sensor = \"thumb\" }, index = { sensor = \"index\", taxel = 16 }, \
+                   middle = { sensor = \"middle\" } }";
     let cfg = parse(&format!("[tactile]\nkind = \"serial\"\n{fingers}\n")).unwrap();
     let e = cfg.validate().unwrap_err().to_string();
-    assert!(e.contains("fingers.index") && e.contains("16"), "{e}");
+    assert!(e.contains("finger `index` reads taxel 16 of tactile sensor `index`, which has 16"), "{e}");
+    let e =
+        parse("[tactile]\nkind = \"serial\"\nfingers = { thumb = { module = 0, taxel = 0 } }\n").unwrap_err();
+    assert!(e.to_string().contains("module"), "the old finger map is refused by name: {e}");
     let cfg = parse("[camera]\nkind = \"v4l2\"\n").unwrap();
     assert!(cfg.validate().unwrap_err().to_string().contains("intrinsics"));
     let cfg = parse("[hand]\nkind = \"can\"\nrelease_id = 0x300\n").unwrap();
     assert!(cfg.validate().is_err());
     let cfg = parse("[tactile]\nkind = \"can\"\ntaxels = 16\n").unwrap();
-    assert!(cfg.validate().unwrap_err().to_string().contains("fingers.index"), "module 1 of 16 taxels");
+    let e = cfg.validate().unwrap_err().to_string();
+    assert!(e.contains("sensors `index` (module 1) ends at board taxel 32, beyond the board's 16"), "{e}");
 }

@@ -6,6 +6,8 @@ use slidetrack_core::{TimeNs, WallClock};
 
 use super::*;
 use crate::config::SerialTactileConfig;
+use crate::sensors::HwSensor;
+use slidetrack_core::{FingerReading, PerFinger, SensorLayout, TactileLayout};
 
 /// Scans whose values tell their sequence number, one every `period`.
 struct Counting {
@@ -17,25 +19,44 @@ impl TactileSource for Counting {
     fn read(&mut self) -> Result<TactileSample, DeviceError> {
         std::thread::sleep(self.period);
         self.sequence += 1;
-        let s = self.sequence as u16;
-        Ok(TactileSample {
-            t: TimeNs::ZERO,
-            sequence: self.sequence,
-            raw: [[s, 0, 7], [s, 100, 7], [s, 200, 7]],
-        })
+        Ok(TactileSample { t: TimeNs::ZERO, sequence: self.sequence, raw: values(self.sequence) })
     }
     fn info(&self) -> TactileInfo {
-        TactileInfo { device: "counting".into(), rate_hz: 1000.0, taxels: None }
+        let sensors = ["a", "b", "c"].map(|n| SensorLayout::grid(n, "test", "thumb", 2, 2)).to_vec();
+        TactileInfo {
+            device: "counting".into(),
+            rate_hz: 1000.0,
+            layout: TactileLayout { sensors },
+            fingers: PerFinger::from_fn(|_| FingerReading::mean("b")),
+        }
     }
+}
+
+/// Scan `sequence`: three 2x2 sensors, every taxel distinct.
+fn values(sequence: u64) -> Vec<RawTaxel> {
+    let s = sequence as u16;
+    (0..12).map(|t| [s, 100 * t, 7]).collect()
+}
+
+/// Sensors `a`, `b`, `c` on modules 3, 7 and 1, 2x2 taxels each.
+fn hw_sensors(rows: u32) -> Vec<HwSensor> {
+    [("a", 3), ("b", 7), ("c", 1)]
+        .map(|(name, module)| HwSensor {
+            name: name.into(),
+            module,
+            finger: "thumb".into(),
+            model: "test".into(),
+            rows,
+            cols: 2,
+            taxel_positions_mm: None,
+        })
+        .to_vec()
 }
 
 fn cfg(faults: EmulatorConfig) -> SerialTactileConfig {
     SerialTactileConfig {
-        fingers: PerFinger {
-            thumb: TaxelRef { module: 0, taxel: 3 },
-            index: TaxelRef { module: 1, taxel: 0 },
-            middle: TaxelRef { module: 1, taxel: 15 },
-        },
+        sensors: hw_sensors(2),
+        fingers: PerFinger::from_fn(|_| FingerReading::taxel("c", 3)),
         timeout_ms: 500,
         emulator: faults,
         ..SerialTactileConfig::default()
@@ -47,9 +68,21 @@ fn start(faults: EmulatorConfig) -> EmulatedSerialTactile {
     EmulatedSerialTactile::start(source, &cfg(faults), 1000.0, Arc::new(WallClock::start())).unwrap()
 }
 
-fn expected(sample: &TactileSample) -> [RawTaxel; 3] {
-    let s = sample.sequence as u16;
-    [[s, 0, 7], [s, 100, 7], [s, 200, 7]]
+fn expected(sample: &TactileSample) -> Vec<RawTaxel> {
+    values(sample.sequence)
+}
+
+#[test]
+fn configured_sensors_must_match_the_simulated_ones() {
+    let source = Box::new(Counting { sequence: 0, period: Duration::from_micros(500) });
+    let c = SerialTactileConfig { sensors: hw_sensors(3), ..cfg(EmulatorConfig::default()) };
+    let Err(e) = EmulatedSerialTactile::start(source, &c, 1000.0, Arc::new(WallClock::start())) else {
+        panic!("3x2 sensors accepted for 2x2 simulated ones")
+    };
+    assert!(
+        e.detail.contains("(a 3x2, b 3x2, c 3x2) must match the simulated sensors (a 2x2, b 2x2, c 2x2)"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -1,20 +1,26 @@
 //! Offline decoding of candump logs and serial captures, including damaged ones.
 
-use slidetrack_core::{PerFinger, TaxelRef};
+use slidetrack_core::{FingerReading, PerFinger, RawTaxel};
 
 use super::*;
 use crate::can_protocol::XelaCanLayout;
+use crate::sensors::HwSensor;
 use crate::serial_protocol::ModuleFrame;
 
 fn can_cfg() -> CanTactileConfig {
     CanTactileConfig {
         taxels: 16,
         taxels_per_module: 16,
-        fingers: PerFinger {
-            thumb: TaxelRef { module: 0, taxel: 1 },
-            index: TaxelRef { module: 0, taxel: 7 },
-            middle: TaxelRef { module: 0, taxel: 15 },
-        },
+        sensors: vec![HwSensor {
+            name: "patch".into(),
+            module: 0,
+            finger: "thumb".into(),
+            model: "uSPa44".into(),
+            rows: 4,
+            cols: 4,
+            taxel_positions_mm: None,
+        }],
+        fingers: PerFinger::from_fn(|_| FingerReading::mean("patch")),
         ..CanTactileConfig::default()
     }
 }
@@ -61,7 +67,7 @@ fn a_clean_log_gives_every_scan_with_log_times() {
     assert_eq!(bad, 0);
     for (s, sample) in samples.iter().enumerate() {
         let s = s as u64;
-        assert_eq!(sample.raw, [value(s, 1), value(s, 7), value(s, 15)]);
+        assert_eq!(sample.raw, (0..16).map(|t| value(s, t)).collect::<Vec<_>>(), "every taxel of the patch");
         assert_eq!(sample.sequence, s);
         // Relative to the first record (the start command), at the scan's last frame.
         assert_eq!(sample.t, TimeNs((1000 + s * 10_000 + 1500) * 1000));
@@ -117,7 +123,9 @@ fn a_serial_capture_decodes_with_times_from_the_scan_counter() {
     let mut d = SerialCaptureDecoder::new(bytes.as_slice(), &cfg, 1000.0);
     let samples: Vec<_> = d.by_ref().collect();
     assert_eq!(samples.len(), 49);
-    assert_eq!(samples[0].raw, [[0, 0, 0], [1, 0, 0], [2, 0, 0]]);
+    // Three 4x4 modules (the default sensors), every taxel.
+    let expected: Vec<RawTaxel> = (0..3).flat_map(|m| (0..16).map(move |t| [m, 0, t])).collect();
+    assert_eq!(samples[0].raw, expected);
     assert_eq!(samples[0].sequence, 100);
     assert_eq!(samples[20].sequence, 121);
     assert_eq!(samples[20].t, TimeNs(21_000_000), "1 kHz from the first scan, across the lost one");

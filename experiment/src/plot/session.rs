@@ -2,12 +2,14 @@
 //! tactile channels and the marker position (Fig. 6.8).
 
 use anyhow::{Context, Result};
-use slidetrack_core::{Finger, TimeNs};
+use slidetrack_core::{AXES, Finger, TactileInfo, TimeNs};
 use slidetrack_session::{
-    ArucoDetection, GraspControl, ReadOptions, SessionError, SimTruth, TactileZeroed, read_channel,
+    ArucoDetection, GraspControl, ReadOptions, SessionError, SessionInfo, SimTruth, TactileZeroed,
+    read_channel, scan_of,
 };
 
 use super::{PALETTE, Panel, Series};
+use crate::channels::{ChannelPicker, recorded_tactile};
 
 fn secs(t: TimeNs) -> f64 {
     t.as_secs_f64()
@@ -66,25 +68,45 @@ pub fn grasp_overview(file: &std::path::Path, opts: ReadOptions) -> Result<Panel
 
 const RGB_GREY: plotters::style::RGBColor = plotters::style::RGBColor(110, 110, 110);
 
-/// Baseline-subtracted x, y, z per finger (Fig. 6.8).
+/// Baseline-subtracted x, y, z of each finger's reading (Fig. 6.8): its
+/// taxel, or the mean of its patch, as the session's taxel layout says.
 pub fn tactile_panels(file: &std::path::Path, opts: ReadOptions) -> Result<Vec<Panel>> {
     let zeroed =
         read_channel::<TactileZeroed>(file, opts).context("the tactile plot needs /tactile/zeroed")?;
-    Ok(Finger::ALL
+    let info = SessionInfo::read(file, opts)?;
+    let tactile = recorded_tactile(file, &info)?
+        .unwrap_or_else(|| TactileInfo::one_module_per_finger("recorded", 100.0, "sim"));
+    let mut scans = Vec::with_capacity(zeroed.len());
+    for (t, z) in &zeroed {
+        let scan = scan_of(&tactile.layout, &z.sensors)
+            .with_context(|| format!("{}: /tactile/zeroed at {t}", file.display()))?;
+        scans.push((secs(*t), scan));
+    }
+    Finger::ALL
         .iter()
-        .map(|&f| Panel {
-            title: format!("{} tactile channels", f.name()),
-            y_label: "counts - baseline".into(),
-            series: ["x", "y", "z"]
-                .iter()
+        .map(|&f| {
+            let names: Vec<String> = AXES.iter().map(|a| format!("{}.{a}", f.name())).collect();
+            let picker = ChannelPicker::new(&names, &tactile)?;
+            let mut xyz = [0.0; 3];
+            let mut per_axis: [Vec<(f64, f64)>; 3] = Default::default();
+            for (t, scan) in &scans {
+                picker.pick(scan, &mut xyz);
+                for a in 0..3 {
+                    per_axis[a].push((*t, xyz[a]));
+                }
+            }
+            let series = per_axis
+                .into_iter()
+                .zip(AXES)
                 .enumerate()
-                .map(|(a, name)| {
-                    let pts = zeroed.iter().map(|(t, z)| (secs(*t), z.counts[f].to_array()[a])).collect();
-                    Series::line(*name, PALETTE[a], pts)
-                })
-                .collect(),
+                .map(|(a, (pts, n))| Series::line(n, PALETTE[a], pts));
+            Ok(Panel {
+                title: format!("{} tactile channels", f.name()),
+                y_label: "counts - baseline".into(),
+                series: series.collect(),
+            })
         })
-        .collect())
+        .collect()
 }
 
 /// Session time at which the hand opened, if it did: after it the object

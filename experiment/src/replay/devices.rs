@@ -71,7 +71,9 @@ impl TactileSource for ReplayTactile {
                 });
             }
         }
-        let raw = scan.message.counts.into_array().map(|xyz| xyz.to_array());
+        let raw = scan.message.scan(&self.info.layout).map_err(|e| {
+            DeviceError::new(ErrorKind::Corrupt, &self.info.device, format!("a recorded scan at {t}: {e}"))
+        })?;
         Ok(TactileSample { t, sequence: scan.message.sequence, raw })
     }
 

@@ -32,13 +32,14 @@ use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelMessage, CompressedImage, ProtocolEvent as EventMsg,
     ReadOptions, SESSION_METADATA, SessionInfo, SimTruth as TruthMsg, TactileDecoder, TactileRaw,
-    TaxelLayout, read_channel,
+    read_channel,
 };
 use slidetrack_sim::ObjectConfig;
 
 pub use devices::{RecordedMarkers, ReplayCamera, ReplayHand, ReplayTactile, ReplayTruth};
 pub use stream::{Recorded, TopicStream};
 
+use crate::channels::recorded_tactile;
 use crate::dekf_run::DekfStage;
 use crate::marker::MarkerSource;
 use crate::observer::TrialExtension;
@@ -107,15 +108,9 @@ impl ReplaySession {
             Some(text) => ObjectConfig::from_toml(text, &origin("object_config"))?,
             None => ObjectConfig::load(meta.get("object").map_or("box", String::as_str))?,
         };
-        let layout = info
-            .channel(TactileRaw::TOPIC)
-            .and_then(|c| TaxelLayout::from_channel_metadata(&c.metadata))
-            .transpose()
-            .with_context(|| format!("{}: bad taxel layout on {}", path.display(), TactileRaw::TOPIC))?;
-        let tactile = match layout {
-            Some(l) => TactileInfo { device: l.device, rate_hz: l.rate_hz, taxels: Some(l.taxels) },
-            None => TactileInfo { device: "recorded".into(), rate_hz: rig.sim.tactile_rate_hz, taxels: None },
-        };
+        let tactile = recorded_tactile(path, &info)?.unwrap_or_else(|| {
+            TactileInfo::one_module_per_finger("recorded", rig.sim.tactile_rate_hz, "sim")
+        });
         let camera = if has(CompressedImage::TOPIC) && has(ArucoDetection::TOPIC) {
             let calibration = read_channel::<CameraCalibration>(path, ReadOptions::default())?;
             calibration.first().and_then(|(_, c)| c.intrinsics())
@@ -191,8 +186,9 @@ impl ReplaySession {
     }
 
     /// The protocol the recording ran.
-    pub fn protocol(&self) -> Protocol {
-        protocol_for(&self.rig, &self.object, self.cycles_duration_s)
+    pub fn protocol(&self) -> Result<Protocol> {
+        let fingers = self.tactile.finger_map().context("the recorded taxel layout")?;
+        Ok(protocol_for(&self.rig, &self.object, self.cycles_duration_s, fingers))
     }
 }
 
@@ -283,7 +279,7 @@ pub fn replay_with(
 ) -> Result<TrialOutcome> {
     let RigSetup { mut rig, markers, .. } = session.rig(options)?;
     let mut observer = ExtensionObserver { markers, extension };
-    let mut protocol = session.protocol();
+    let mut protocol = session.protocol()?;
     Ok(run_trial(&mut rig, &mut protocol, &mut observer, &AtomicBool::new(false)))
 }
 
@@ -295,7 +291,7 @@ struct DekfCollector {
 
 impl TrialExtension for DekfCollector {
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
-        if let Some(out) = self.stage.on_scan(t, zeroed.as_flattened().try_into()?) {
+        if let Some(out) = self.stage.on_scan(t, zeroed) {
             self.outputs.push((t, out));
         }
         Ok(())
@@ -311,7 +307,8 @@ impl TrialExtension for DekfCollector {
 pub fn replay_dekf(path: &Path, model: &DekfModel) -> Result<Vec<(TimeNs, DekfOutput)>> {
     let session = ReplaySession::open(path)?;
     check_rate(&session, model)?;
-    let mut collector = DekfCollector { stage: DekfStage::new(model)?, outputs: Vec::new() };
+    let mut collector =
+        DekfCollector { stage: DekfStage::new(model, &session.tactile)?, outputs: Vec::new() };
     // The dEKF reads tactile data only: no camera, no truth.
     let outcome = replay_with(&session, ReplayOptions { camera: false, truth: false }, &mut collector)?;
     if let Some(reason) = outcome.abort.filter(|_| collector.outputs.is_empty()) {

@@ -12,7 +12,9 @@ use std::sync::Arc;
 use anyhow::{Context, Result, bail};
 use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig};
-use slidetrack_core::{Camera, CameraIntrinsics, Clock, SimClock, TactileInfo, TactileSource, WallClock};
+use slidetrack_core::{
+    Camera, CameraIntrinsics, Clock, FingerMap, SimClock, TactileInfo, TactileSource, WallClock,
+};
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
 
@@ -128,20 +130,29 @@ pub fn marker_tracking(
 }
 
 /// The protocol of a trial of `object` on `rig`, whose sliding cycles last
-/// `cycles_duration_s` seconds: the same for a live trial and its replay.
-pub fn protocol_for(rig: &RigConfig, object: &ObjectConfig, cycles_duration_s: f64) -> Protocol {
+/// `cycles_duration_s` seconds, reading the fingers through `fingers`: the
+/// same for a live trial and its replay.
+pub fn protocol_for(
+    rig: &RigConfig,
+    object: &ObjectConfig,
+    cycles_duration_s: f64,
+    fingers: FingerMap,
+) -> Protocol {
     let e = &object.experiment;
-    Protocol::new(ProtocolConfig {
-        settings: rig.protocol.clone(),
-        profile: GraspProfile {
-            max_counts: e.grasp_max_counts,
-            min_counts: e.grasp_min_counts,
-            period_s: e.period_s,
-            sharpness: e.sharpness,
+    Protocol::new(
+        ProtocolConfig {
+            settings: rig.protocol.clone(),
+            profile: GraspProfile {
+                max_counts: e.grasp_max_counts,
+                min_counts: e.grasp_min_counts,
+                period_s: e.period_s,
+                sharpness: e.sharpness,
+            },
+            travel_limit_m: e.travel_limit_m,
+            cycles_duration_s,
         },
-        travel_limit_m: e.travel_limit_m,
-        cycles_duration_s,
-    })
+        fingers,
+    )
 }
 
 /// The rig of `spec`, simulated or real, once it is clear that its session

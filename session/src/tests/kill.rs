@@ -115,7 +115,7 @@ fn a_killed_writer_leaves_its_complete_chunks_readable() {
 
     let got = read_channel::<TactileRaw>(&path, ReadOptions::recover()).unwrap();
     for (i, (t, m)) in got.iter().enumerate() {
-        assert_eq!((*t, *m), (t_ms(i as u64), raw(i as u64)), "message {i}");
+        assert_eq!((*t, m.clone()), (t_ms(i as u64), raw(i as u64)), "message {i}");
     }
     let frames: Vec<RawMessage> = MessageReader::open(&path, &["/camera/blob"], ReadOptions::recover())
         .unwrap()

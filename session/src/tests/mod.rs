@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use slidetrack_core::{CameraIntrinsics, EncodedImage, Finger, PerFinger, Phase, TaxelRef, TimeNs};
+use slidetrack_core::{CameraIntrinsics, EncodedImage, Finger, PerFinger, Phase, TimeNs};
 
 use super::*;
 
@@ -67,10 +67,14 @@ pub(super) fn raw(i: u64) -> TactileRaw {
     let base = (i * 7 % 60_000) as u16;
     TactileRaw {
         sequence: i,
-        counts: PerFinger::from_fn(|f| {
-            let k = f.index() as u16;
-            Xyz { x: base + k, y: base / 2 + k, z: u16::MAX - base - k }
-        }),
+        sensors: Finger::ALL
+            .iter()
+            .map(|f| {
+                let k = f.index() as u16;
+                let taxels = vec![Xyz { x: base + k, y: base / 2 + k, z: u16::MAX - base - k }];
+                SensorValues { name: f.name().to_string(), taxels }
+            })
+            .collect(),
     }
 }
 
@@ -105,6 +109,22 @@ pub(super) struct EveryChannel {
     pub events: Vec<(TimeNs, ProtocolEvent)>,
 }
 
+/// `raw` minus the (single-taxel) baseline of each sensor.
+fn minus(raw: &[SensorValues<u16>], baseline: &[SensorValues<f64>]) -> SensorTaxels<f64> {
+    raw.iter()
+        .zip(baseline)
+        .map(|(raw, base)| {
+            let b = base.taxels[0];
+            let taxels = raw
+                .taxels
+                .iter()
+                .map(|c| Xyz { x: f64::from(c.x) - b.x, y: f64::from(c.y) - b.y, z: f64::from(c.z) - b.z })
+                .collect();
+            SensorValues { name: raw.name.clone(), taxels }
+        })
+        .collect()
+}
+
 impl EveryChannel {
     /// `n` steps of a plausible trial on every channel.
     pub(super) fn new(n: u64) -> EveryChannel {
@@ -123,18 +143,20 @@ impl EveryChannel {
                 ProtocolEvent { phase: Phase::Zero, message: "zeroing, \"hands off\"".into(), abort: false },
             )],
         };
-        let baseline = PerFinger::from_fn(|f| Xyz { x: 100.5, y: 200.25, z: 300.0 + f.index() as f64 });
-        e.tare.push((t_ms(0), TactileTare { samples: 50, baseline }));
+        let baseline: SensorTaxels<f64> = Finger::ALL
+            .iter()
+            .map(|f| SensorValues {
+                name: f.name().to_string(),
+                taxels: vec![Xyz { x: 100.5, y: 200.25, z: 300.0 + f.index() as f64 }],
+            })
+            .collect();
+        e.tare.push((t_ms(0), TactileTare { samples: 50, baseline: baseline.clone() }));
         for i in 0..n {
             let t = t_ms(i);
             let r = raw(i);
+            let zeroed = minus(&r.sensors, &baseline);
             e.raw.push((t, r));
-            let zeroed = PerFinger::from_fn(|f| {
-                let c = r.counts[f];
-                let b = baseline[f];
-                Xyz { x: f64::from(c.x) - b.x, y: f64::from(c.y) - b.y, z: f64::from(c.z) - b.z }
-            });
-            e.zeroed.push((t, TactileZeroed { counts: zeroed }));
+            e.zeroed.push((t, TactileZeroed { sensors: zeroed }));
             let fingers = PerFinger::from_fn(|f| FingerSetpoint {
                 desired: 500.0 + i as f64,
                 achieved: 499.5 + i as f64 - f.index() as f64,
@@ -222,10 +244,7 @@ pub(super) fn record_every_channel_and(
 ) -> RecorderStats {
     let rec = Recorder::create_with_options(path, session_metadata().to_map(), options).unwrap();
     rec.attach("camera.toml", "application/toml", b"fx = 600.5\n".to_vec()).unwrap();
-    let layout = TaxelLayout::new(
-        &slidetrack_core::TactileInfo { device: "sim".into(), rate_hz: 1000.0, taxels: None },
-        None,
-    );
+    let layout = TaxelLayout::new(&slidetrack_core::TactileInfo::one_module_per_finger("sim", 1000.0, "sim"));
     log_all(&rec, layout.channel_metadata(), &e.raw);
     log_all(&rec, BTreeMap::new(), &e.tare);
     log_all(&rec, BTreeMap::new(), &e.zeroed);

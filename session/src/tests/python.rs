@@ -86,10 +86,13 @@ fn the_official_python_reader_reads_a_recorded_session() {
     assert!(report["chunk_count"].as_u64().unwrap() > 1);
 
     let raw = first(&report, TactileRaw::TOPIC);
-    assert_eq!(raw["data"], serde_json::to_value(e.raw[0].1).unwrap());
+    assert_eq!(raw["data"], serde_json::to_value(&e.raw[0].1).unwrap());
     assert_eq!(raw["schema"], "slidetrack.TactileRaw");
     assert_eq!((raw["log_time"].as_u64(), raw["sequence"].as_u64()), (Some(0), Some(0)));
-    assert_eq!(report["layout"]["fingers"], json!(["thumb", "index", "middle"]));
+    let sensors: Vec<&str> =
+        report["layout"]["sensors"].as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap()).collect();
+    assert_eq!(sensors, ["thumb", "index", "middle"]);
+    assert_eq!(report["layout"]["fingers"]["index"], json!({"sensor": "index", "taxel": 0}));
 
     let grasp = first(&report, GraspControl::TOPIC);
     assert_eq!(grasp["data"], serde_json::to_value(&e.grasp[0].1).unwrap());

@@ -89,9 +89,10 @@ fn session_info_from_the_summary_matches_a_full_scan() {
 
     let layout = TaxelLayout::from_channel_metadata(&raw.metadata).unwrap().unwrap();
     assert_eq!(layout.device, "sim");
-    assert_eq!(layout.fingers, ["thumb", "index", "middle"]);
+    assert_eq!(layout.fingers.middle, slidetrack_core::FingerReading::taxel("middle", 0));
     assert_eq!(layout.axes, ["x", "y", "z"]);
-    assert_eq!(layout.taxels.middle, TaxelRef { module: 2, taxel: 0 });
+    let names: Vec<&str> = layout.sensors.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(names, ["thumb", "index", "middle"]);
 }
 
 #[test]
@@ -114,24 +115,21 @@ fn csv_has_one_column_per_field_in_struct_order() {
     let summary = export_csv(&path, TactileRaw::TOPIC, ReadOptions::default(), &mut out).unwrap();
     let text = String::from_utf8(out).unwrap();
     let mut lines = text.lines();
-    let header = "log_time_ns,sequence,thumb.x,thumb.y,thumb.z,index.x,index.y,index.z,\
-                  middle.x,middle.y,middle.z";
+    // Sensors and their taxels in layout order, each sensor named.
+    let header = "log_time_ns,sequence,sensors.0.name,sensors.0.taxels.0.x,sensors.0.taxels.0.y,\
+                  sensors.0.taxels.0.z,sensors.1.name,sensors.1.taxels.0.x,sensors.1.taxels.0.y,\
+                  sensors.1.taxels.0.z,sensors.2.name,sensors.2.taxels.0.x,sensors.2.taxels.0.y,\
+                  sensors.2.taxels.0.z";
     assert_eq!(lines.next(), Some(header));
     assert_eq!(summary.columns.join(","), header);
     assert_eq!(summary.rows, 20);
-    let r = e.raw[3].1;
-    let expected = format!(
-        "3000000,3,{},{},{},{},{},{},{},{},{}",
-        r.counts.thumb.x,
-        r.counts.thumb.y,
-        r.counts.thumb.z,
-        r.counts.index.x,
-        r.counts.index.y,
-        r.counts.index.z,
-        r.counts.middle.x,
-        r.counts.middle.y,
-        r.counts.middle.z,
-    );
+    let r = &e.raw[3].1;
+    let values: Vec<String> = r
+        .sensors
+        .iter()
+        .flat_map(|s| std::iter::once(s.name.clone()).chain(s.taxels[0].to_array().map(|v| v.to_string())))
+        .collect();
+    let expected = format!("3000000,3,{}", values.join(","));
     assert_eq!(lines.nth(3), Some(expected.as_str()));
 
     let mut out = Vec::new();

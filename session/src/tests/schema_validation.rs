@@ -150,14 +150,14 @@ fn integer_bounds_and_nulls_are_exactly_those_of_the_rust_types() {
     let schema = |s: Value| ChannelSchema::new(s);
     let raw = schema(TactileRaw::json_schema());
     let mut m = serde_json::to_value(super::raw(3)).unwrap();
-    m["thumb"]["x"] = json!(65535);
+    m["sensors"][0]["taxels"][0]["x"] = json!(65535);
     m["sequence"] = json!(u64::MAX);
     assert_eq!(raw.check(&m), Ok(()));
-    m["thumb"]["x"] = json!(65536);
+    m["sensors"][0]["taxels"][0]["x"] = json!(65536);
     assert!(raw.check(&m).is_err(), "a u16 count above 65535");
-    m["thumb"]["x"] = json!(-1);
+    m["sensors"][0]["taxels"][0]["x"] = json!(-1);
     assert!(raw.check(&m).is_err(), "a negative count");
-    m["thumb"]["x"] = json!(1.5);
+    m["sensors"][0]["taxels"][0]["x"] = json!(1.5);
     assert!(raw.check(&m).is_err(), "a fractional count");
 
     let tare = schema(TactileTare::json_schema());
