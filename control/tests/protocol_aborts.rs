@@ -13,7 +13,9 @@ fn protocol() -> Protocol {
             travel_limit_m: 0.1,
             cycles_duration_s: 5.0,
         },
-        TactileInfo::one_module_per_finger("test", 100.0, "test").finger_map().expect("the thesis hand resolves"),
+        TactileInfo::one_module_per_finger("test", 100.0, "test")
+            .finger_map()
+            .expect("the thesis hand resolves"),
     )
 }
 

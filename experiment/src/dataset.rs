@@ -41,6 +41,22 @@ impl ChannelSet {
         crate::channels::finger_channels(axes)
     }
 
+    /// The set whose channels are `names`, if any.
+    pub fn named(names: &[String]) -> Option<ChannelSet> {
+        [ChannelSet::Xyz, ChannelSet::Xy, ChannelSet::Z].into_iter().find(|s| s.names() == names)
+    }
+
+    /// The channels of `text`: a set's name (`xyz`, `xy`, `z`), or channel
+    /// names separated by commas (`thumb.5.z,index.mean.x`).
+    pub fn parse_channels(text: &str) -> Vec<String> {
+        match text {
+            "xyz" => ChannelSet::Xyz.names(),
+            "xy" => ChannelSet::Xy.names(),
+            "z" => ChannelSet::Z.names(),
+            _ => text.split(',').map(|c| c.trim().to_string()).filter(|c| !c.is_empty()).collect(),
+        }
+    }
+
     /// `xyz`, `xy` or `z`.
     pub fn name(self) -> &'static str {
         match self {

@@ -26,8 +26,8 @@ const SELECTION_SESSIONS: usize = 8;
 /// What to train: the model's inputs and the optimisation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainSpec {
-    /// Tactile channels the model reads.
-    pub channels: ChannelSet,
+    /// Tactile channels the model reads, by name (see [`crate::channels`]).
+    pub channels: Vec<String>,
     /// What the feature network reads.
     pub measurement: Measurement,
     /// Filter rate (Hz): the tactile stream is decimated to about this rate.
@@ -56,7 +56,7 @@ impl Default for TrainSpec {
     /// channels at 30 Hz, position shift, epoch selection), ground truth.
     fn default() -> Self {
         TrainSpec {
-            channels: ChannelSet::Xy,
+            channels: ChannelSet::Xy.names(),
             measurement: Measurement::Derivative,
             rate_hz: 30.0,
             schedule: [2, 4, 8, 16, 32].map(|length| Stage { length, epochs: 5 }).to_vec(),
@@ -131,7 +131,7 @@ fn new_model(
 ) -> Result<(DekfModel, Vec<Sequence>)> {
     let tactile_rate = common_tactile_rate(sessions)?;
     let decimation = ((tactile_rate / spec.rate_hz).round() as usize).max(1);
-    let channels = spec.channels.names();
+    let channels = spec.channels.clone();
     let filter = DerivativeFilterConfig::default();
     let prepared: Vec<Inputs> = sessions
         .iter()
@@ -150,7 +150,7 @@ fn new_model(
         training: json!({
             "config": cfg,
             "truth": spec.truth.topic(),
-            "channel_set": spec.channels.name(),
+            "channel_set": ChannelSet::named(&spec.channels).map_or("custom", ChannelSet::name),
             "sessions": files,
             "steps": prepared.iter().map(|p| p.times.len()).sum::<usize>(),
         }),

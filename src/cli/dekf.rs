@@ -4,29 +4,8 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use slidetrack_estimators::dekf::Measurement;
-use slidetrack_experiment::dataset::{ChannelSet, TruthSource};
+use slidetrack_experiment::dataset::TruthSource;
 use slidetrack_experiment::dekf_train::DEFAULT_POSITION_SHIFT_CM;
-
-/// A channel set of Table 6.2 on the command line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ChannelSetArg {
-    /// x, y and z of every finger.
-    Xyz,
-    /// x and y (the shear channels) of every finger.
-    Xy,
-    /// z (the normal channel) of every finger.
-    Z,
-}
-
-impl From<ChannelSetArg> for ChannelSet {
-    fn from(c: ChannelSetArg) -> ChannelSet {
-        match c {
-            ChannelSetArg::Xyz => ChannelSet::Xyz,
-            ChannelSetArg::Xy => ChannelSet::Xy,
-            ChannelSetArg::Z => ChannelSet::Z,
-        }
-    }
-}
 
 /// Which truth to train and score against, on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -61,9 +40,12 @@ pub struct TrainArgs {
     /// Labelled session files, or directories of them.
     #[arg(required = true)]
     pub sessions: Vec<PathBuf>,
-    /// Tactile channels the model reads.
-    #[arg(long, value_enum, default_value_t = ChannelSetArg::Xy)]
-    pub channels: ChannelSetArg,
+    /// Tactile channels the model reads: a set of Table 6.2 (`xyz`, `xy`,
+    /// `z`: those axes of every finger's reading), or channel names separated
+    /// by commas: `finger.axis` (`thumb.x`), `sensor.taxel.axis`
+    /// (`thumb.5.z`), `sensor.mean.axis` (`index.mean.y`).
+    #[arg(long, default_value = "xy")]
+    pub channels: String,
     /// What the model reads: the derivative of the signal or the signal.
     #[arg(long, value_enum, default_value_t = MeasurementArg::Derivative)]
     pub measurement: MeasurementArg,

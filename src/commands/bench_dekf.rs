@@ -117,7 +117,7 @@ pub fn training(dir: &Path, runs: usize, threads: usize, quiet: bool) -> Result<
     let files = thesis_sized_set(dir, 50, 60.0)?;
     let collect_s = collected.elapsed().as_secs_f64();
     let spec = TrainSpec {
-        channels: ChannelSet::Xy,
+        channels: ChannelSet::Xy.names(),
         seed: 1,
         threads,
         truth: TruthSource::Sim,

@@ -50,7 +50,7 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     step(&format!("training the dEKF on {} sessions (xy channels, tactile derivative)", train.len()));
     let model_path = args.out.join("box-xy.safetensors");
     let spec = TrainSpec {
-        channels: ChannelSet::Xy,
+        channels: ChannelSet::Xy.names(),
         seed: args.seed,
         threads: workers,
         truth: TruthSource::GroundTruth,

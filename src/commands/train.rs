@@ -3,7 +3,7 @@
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use slidetrack_experiment::dataset::{SessionData, expand, load};
+use slidetrack_experiment::dataset::{ChannelSet, SessionData, expand, load};
 use slidetrack_experiment::dekf_run::save_model;
 use slidetrack_experiment::dekf_train::{TrainSpec, Trained, fit_sessions, parse_schedule};
 use slidetrack_experiment::plot::dekf::plot_training_curve;
@@ -13,7 +13,7 @@ use crate::cli::TrainArgs;
 /// The training `args` ask for.
 pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
     Ok(TrainSpec {
-        channels: args.channels.into(),
+        channels: ChannelSet::parse_channels(&args.channels),
         measurement: args.measurement.into(),
         rate_hz: args.rate_hz,
         schedule: parse_schedule(&args.schedule)?,

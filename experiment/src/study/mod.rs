@@ -182,7 +182,7 @@ pub fn train_and_score(spec: &ModelSpec, sets: &Sets, s: &StudySpec) -> Result<O
         spec.trained_on.iter().flat_map(|o| sets[&(*o, false)].iter().cloned()).collect();
     let path = s.out.join("models").join(format!("{}.safetensors", spec.name));
     let train_spec = TrainSpec {
-        channels: spec.channels,
+        channels: spec.channels.names(),
         measurement: spec.measurement,
         schedule: s.schedule.clone(),
         seed: s.seed,
