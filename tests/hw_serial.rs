@@ -6,7 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use common::{fails, ok, slidetrack, tempdir};
+use common::{SIM_PATCH_4X4, fails, ok, slidetrack, tempdir};
 use slidetrack_session::{
     ReadOptions, SessionInfo, TactileDecoder, TactileRaw, TactileZeroed, TaxelLayout, read_channel,
 };
@@ -24,11 +24,6 @@ release_duration_s = 0.3
 /// A 4x4 patch per fingertip on the simulated rig, read through the
 /// emulator as three uSkin-style modules of 16 taxels (the default sensors).
 const SERIAL_EMULATED: &str = "
-[sim.tactile.patch]
-rows = 4
-cols = 4
-pitch_mm = 4.7
-contact_sigma_mm = 6.0
 [hw]
 name = \"emulated-serial\"
 [hw.tactile]
@@ -43,7 +38,8 @@ kind = \"sim\"
 
 fn write_rig(dir: &Path, extra: &str) -> String {
     let path = dir.join("rig.toml");
-    std::fs::write(&path, format!("{SHORT_PROTOCOL}{SERIAL_EMULATED}{extra}")).expect("rig.toml written");
+    std::fs::write(&path, format!("{SHORT_PROTOCOL}{SIM_PATCH_4X4}{SERIAL_EMULATED}{extra}"))
+        .expect("rig.toml written");
     path.to_str().expect("a UTF-8 path").to_string()
 }
 
@@ -149,7 +145,7 @@ fn unplugging_mid_trial_releases_the_hand_and_keeps_the_data() {
     let faults =
         "emulator = { unplug_after_s = 2.5, corrupt_every_frames = 40, garbage_every_frames = 55 }\n";
     let rig = dir.path().join("rig.toml");
-    let text = format!("{SHORT_PROTOCOL}{SERIAL_EMULATED}")
+    let text = format!("{SHORT_PROTOCOL}{SIM_PATCH_4X4}{SERIAL_EMULATED}")
         .replace("port = \"emulated\"\n", &format!("port = \"emulated\"\n{faults}"));
     std::fs::write(&rig, text).unwrap();
     let out = dir.path().join("out");

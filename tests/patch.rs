@@ -6,23 +6,15 @@ mod common;
 
 use std::path::Path;
 
-use common::{collect, ok, tempdir};
+use common::{SIM_PATCH_4X4, collect, ok, tempdir};
 use slidetrack_core::{FingerReading, Phase};
 use slidetrack_session::{
     GraspControl, ReadOptions, SessionInfo, TactileRaw, TactileZeroed, TaxelLayout, read_channel,
 };
 
-const PATCH_RIG: &str = "
-[sim.tactile.patch]
-rows = 4
-cols = 4
-pitch_mm = 4.7
-contact_sigma_mm = 6.0
-";
-
 fn patch_rig(dir: &Path) -> String {
     let path = dir.join("patch.toml");
-    std::fs::write(&path, PATCH_RIG).expect("rig written");
+    std::fs::write(&path, SIM_PATCH_4X4).expect("rig written");
     path.to_str().expect("utf-8 path").to_string()
 }
 

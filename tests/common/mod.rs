@@ -96,3 +96,12 @@ pub fn trained(dir: &Path) -> (Vec<PathBuf>, PathBuf) {
     ]);
     (sessions, model)
 }
+
+/// A `[sim.tactile.patch]` table: a 4x4 patch per fingertip on the simulated rig.
+pub const SIM_PATCH_4X4: &str = "
+[sim.tactile.patch]
+rows = 4
+cols = 4
+pitch_mm = 4.7
+contact_sigma_mm = 6.0
+";
