@@ -11,6 +11,7 @@ pub mod marker;
 pub mod observer;
 pub mod pipeline;
 pub mod plot;
+pub mod record;
 pub mod replay;
 pub mod rig;
 pub mod rig_config;

@@ -6,12 +6,13 @@ use std::collections::BTreeMap;
 use anyhow::Result;
 use slidetrack_control::{Baseline, ControlRecord, ObserverError, ProtocolEvent, Tare, TrialObserver};
 use slidetrack_core::{
-    DecoderCounters, Frame, PerFinger, SimTruth, TactileInfo, TactileLayout, TactileSample, TimeNs,
+    DecoderCounters, Frame, HandStatus, PerFinger, SimTruth, TactileInfo, TactileLayout, TactileSample,
+    TimeNs,
 };
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelHandle, ChannelMessage, CompressedImage, FingerSetpoint,
-    GraspControl, HandCommand, Logger, ProtocolEvent as EventMsg, SimTruth as TruthMsg, TactileDecoder,
-    TactileRaw, TactileTare, TactileZeroed, TaxelLayout, sensor_taxels,
+    GraspControl, HandCommand, HandState, Logger, ProtocolEvent as EventMsg, SimTruth as TruthMsg,
+    TactileDecoder, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, sensor_taxels,
 };
 
 use crate::marker::MarkerSource;
@@ -35,13 +36,20 @@ pub struct TrialStats {
     pub decoder: Option<DecoderCounters>,
 }
 
-struct Channels {
-    raw: ChannelHandle<TactileRaw>,
+/// The channels of the controlled-sliding protocol (none in `slidetrack record`).
+struct ControlChannels {
     tare: ChannelHandle<TactileTare>,
     zeroed: ChannelHandle<TactileZeroed>,
     grasp: ChannelHandle<GraspControl>,
     command: ChannelHandle<HandCommand>,
+}
+
+struct Channels {
+    raw: ChannelHandle<TactileRaw>,
+    control: Option<ControlChannels>,
     events: ChannelHandle<EventMsg>,
+    /// `/hand/state`, registered with the first status.
+    hand_state: Option<ChannelHandle<HandState>>,
     truth: Option<ChannelHandle<TruthMsg>>,
     image: Option<ChannelHandle<CompressedImage>>,
     calibration: Option<ChannelHandle<CameraCalibration>>,
@@ -94,15 +102,48 @@ impl<'a> SessionObserver<'a> {
         with_truth: bool,
         progress: Box<dyn FnMut(TimeNs) + 'a>,
     ) -> Result<SessionObserver<'a>> {
+        Self::with_channels(logger, tactile, camera, with_truth, progress, true)
+    }
+
+    /// An observer of a recording without the protocol (`slidetrack record`):
+    /// the channels of [`SessionObserver::new`] except tare, zeroed, control
+    /// and hand command.
+    pub fn recording(
+        logger: Logger,
+        tactile: &TactileInfo,
+        camera: Option<Box<dyn MarkerSource + 'a>>,
+        with_truth: bool,
+        progress: Box<dyn FnMut(TimeNs) + 'a>,
+    ) -> Result<SessionObserver<'a>> {
+        Self::with_channels(logger, tactile, camera, with_truth, progress, false)
+    }
+
+    fn with_channels(
+        logger: Logger,
+        tactile: &TactileInfo,
+        camera: Option<Box<dyn MarkerSource + 'a>>,
+        with_truth: bool,
+        progress: Box<dyn FnMut(TimeNs) + 'a>,
+        with_control: bool,
+    ) -> Result<SessionObserver<'a>> {
         let none = BTreeMap::new;
         let layout = TaxelLayout::new(tactile).channel_metadata();
+        let raw = logger.register::<TactileRaw>(layout)?;
+        let control = with_control
+            .then(|| -> Result<ControlChannels> {
+                Ok(ControlChannels {
+                    tare: logger.register::<TactileTare>(none())?,
+                    zeroed: logger.register::<TactileZeroed>(none())?,
+                    grasp: logger.register::<GraspControl>(none())?,
+                    command: logger.register::<HandCommand>(none())?,
+                })
+            })
+            .transpose()?;
         let ch = Channels {
-            raw: logger.register::<TactileRaw>(layout)?,
-            tare: logger.register::<TactileTare>(none())?,
-            zeroed: logger.register::<TactileZeroed>(none())?,
-            grasp: logger.register::<GraspControl>(none())?,
-            command: logger.register::<HandCommand>(none())?,
+            raw,
+            control,
             events: logger.register::<EventMsg>(none())?,
+            hand_state: None,
             truth: with_truth.then(|| logger.register::<TruthMsg>(none())).transpose()?,
             image: camera.as_ref().map(|_| logger.register::<CompressedImage>(none())).transpose()?,
             calibration: camera.as_ref().map(|_| logger.register::<CameraCalibration>(none())).transpose()?,
@@ -156,6 +197,20 @@ impl<'a> SessionObserver<'a> {
         self.logger.log_json(ch, t, t, 0, msg)?;
         Ok(())
     }
+
+    /// Records a status the hand reported, on `/hand/state`.
+    pub fn on_hand_status(&mut self, status: &HandStatus) -> Result<(), ObserverError> {
+        if self.ch.hand_state.is_none() {
+            self.ch.hand_state = Some(self.logger.register::<HandState>(BTreeMap::new())?);
+        }
+        let Some(ch) = &self.ch.hand_state else { return Ok(()) };
+        self.log(ch, status.t, &HandState::new(status))
+    }
+
+    /// The protocol's channels; an error when the observer records without them.
+    fn control(&self) -> Result<&ControlChannels, ObserverError> {
+        self.ch.control.as_ref().ok_or_else(|| "this recording has no control channels".into())
+    }
 }
 
 impl TrialObserver for SessionObserver<'_> {
@@ -186,11 +241,15 @@ impl TrialObserver for SessionObserver<'_> {
 
     fn on_tare(&mut self, t: TimeNs, tare: &Tare) -> Result<(), ObserverError> {
         let msg = TactileTare { samples: tare.scans, baseline: sensor_taxels(&self.layout, &tare.baseline) };
-        self.log(&self.ch.tare, t, &msg)
+        self.log(&self.control()?.tare, t, &msg)
     }
 
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
-        self.log(&self.ch.zeroed, t, &TactileZeroed { sensors: sensor_taxels(&self.layout, zeroed) })?;
+        self.log(
+            &self.control()?.zeroed,
+            t,
+            &TactileZeroed { sensors: sensor_taxels(&self.layout, zeroed) },
+        )?;
         match self.extension.as_mut() {
             Some(x) => x.on_zeroed(t, zeroed),
             None => Ok(()),
@@ -203,11 +262,11 @@ impl TrialObserver for SessionObserver<'_> {
             achieved: r.achieved_counts[f.index()],
         });
         let msg = GraspControl { phase: r.phase, reference: r.reference_counts, fingers };
-        self.log(&self.ch.grasp, t, &msg)
+        self.log(&self.control()?.grasp, t, &msg)
     }
 
     fn on_command(&mut self, t: TimeNs, volts: [f64; 3], saturated: bool) -> Result<(), ObserverError> {
-        self.log(&self.ch.command, t, &HandCommand { volts: PerFinger::from_array(volts), saturated })
+        self.log(&self.control()?.command, t, &HandCommand { volts: PerFinger::from_array(volts), saturated })
     }
 
     fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError> {

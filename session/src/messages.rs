@@ -28,6 +28,7 @@ pub fn channel_specs() -> Vec<ChannelSpec> {
         ChannelSpec::of::<TactileDecoder>(),
         ChannelSpec::of::<GraspControl>(),
         ChannelSpec::of::<HandCommand>(),
+        ChannelSpec::of::<HandState>(),
         ChannelSpec::of::<CompressedImage>(),
         ChannelSpec::of::<CameraCalibration>(),
         ChannelSpec::of::<ArucoDetection>(),
@@ -332,6 +333,32 @@ pub struct HandCommand {
 impl ChannelMessage for HandCommand {
     const TOPIC: &'static str = "/hand/command";
     const SCHEMA_NAME: &'static str = "slidetrack.HandCommand";
+    fn json_schema() -> Value {
+        derived::<Self>(Self::SCHEMA_NAME)
+    }
+}
+
+/// `/hand/state`: what the hand or gripper reports about itself.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct HandState {
+    /// Each finger's travel from its open rest position towards the object
+    /// (m), in the hand's finger order; empty when the hand does not report it.
+    pub finger_travel: Vec<f64>,
+    /// Opening between the fingertips (m), for grippers that report it;
+    /// `null` for hands that do not.
+    pub opening: Option<f64>,
+}
+
+impl HandState {
+    /// The message of a hand's status.
+    pub fn new(status: &slidetrack_core::HandStatus) -> HandState {
+        HandState { finger_travel: status.finger_travel_m.clone(), opening: status.opening_m }
+    }
+}
+
+impl ChannelMessage for HandState {
+    const TOPIC: &'static str = "/hand/state";
+    const SCHEMA_NAME: &'static str = "slidetrack.HandState";
     fn json_schema() -> Value {
         derived::<Self>(Self::SCHEMA_NAME)
     }

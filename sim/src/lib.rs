@@ -24,7 +24,7 @@ pub use friction::{LuGreContact, LuGreParams};
 pub use object::{
     BUILTIN_OBJECTS, ExperimentSettings, FrictionConfig, ObjectConfig, ObjectGeometry, TrialJitter,
 };
-pub use rig::{SharedWorld, SimDevices, SimHand, SimTactile, SimTruthTap, sim_tactile_info};
+pub use rig::{SharedWorld, SimDevices, SimHand, SimHandMonitor, SimTactile, SimTruthTap, sim_tactile_info};
 pub use surface::{SurfaceConfig, SurfaceProfile};
 pub use tactile_model::{ContactDeformation, PatchConfig, TactileModelConfig, TactileModule};
 pub use world::{SimWorld, Stream, stream_seed};

@@ -4,8 +4,9 @@
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use slidetrack_core::{
-    Clock, DeviceError, ErrorKind, Finger, FingerReading, FingerVolts, HandActuator, PerFinger, SensorLayout,
-    SimTruth, TactileInfo, TactileLayout, TactileSample, TactileSource, TimeNs, TruthSource, saturate,
+    Clock, DeviceError, ErrorKind, Finger, FingerReading, FingerVolts, HandActuator, HandMonitor, HandStatus,
+    PerFinger, SensorLayout, SimTruth, TactileInfo, TactileLayout, TactileSample, TactileSource, TimeNs,
+    TruthSource, saturate,
 };
 
 use super::config::SimRigConfig;
@@ -63,6 +64,34 @@ impl SimDevices {
             truth: SimTruthTap { slot },
             world,
         }
+    }
+
+    /// A reader of the simulated hand's finger positions.
+    pub fn hand_monitor(&self) -> SimHandMonitor {
+        SimHandMonitor { world: self.world.clone(), last: None }
+    }
+}
+
+/// Reads the simulated fingers' travel, as a hand reporting its joints would.
+pub struct SimHandMonitor {
+    world: SharedWorld,
+    /// Simulation time of the last status returned.
+    last: Option<TimeNs>,
+}
+
+impl HandMonitor for SimHandMonitor {
+    fn status(&mut self) -> Result<Option<HandStatus>, DeviceError> {
+        let world = lock(&self.world, "sim hand")?;
+        let t = world.now();
+        if self.last == Some(t) {
+            return Ok(None);
+        }
+        self.last = Some(t);
+        Ok(Some(HandStatus { t, finger_travel_m: world.finger_travel_m().to_vec(), opening_m: None }))
+    }
+
+    fn device(&self) -> &str {
+        "sim hand"
     }
 }
 

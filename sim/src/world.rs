@@ -228,6 +228,11 @@ impl SimWorld {
         }
     }
 
+    /// Each fingertip's travel from its open rest position (m), thumb, index, middle.
+    pub fn finger_travel_m(&self) -> [f64; 3] {
+        self.fingers.map(|f| f.position_m)
+    }
+
     /// The truth now.
     pub fn truth(&self) -> SimTruth {
         SimTruth {

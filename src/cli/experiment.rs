@@ -1,5 +1,5 @@
-//! Arguments of the commands that run the experiment: `collect`, `track`,
-//! `demo`, `bench`.
+//! Arguments of the commands that run the experiment or its devices:
+//! `collect`, `record`, `track`, `demo`, `bench`.
 
 use std::path::PathBuf;
 
@@ -67,6 +67,35 @@ pub struct CollectArgs {
     /// Directory for the session files (created if missing).
     #[arg(long, default_value = "sessions")]
     pub out: PathBuf,
+}
+
+/// Arguments of `record`.
+#[derive(Debug, Args)]
+pub struct RecordArgs {
+    /// The rig whose devices are recorded.
+    #[arg(long, value_enum, default_value_t = RigArg::Hw)]
+    pub rig: RigArg,
+    /// Rig configuration (TOML) naming the devices (`[hw]` table).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Stop after this many seconds of session time (until Ctrl-C when absent).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Session file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace the session file if it exists (refused otherwise).
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Do not record the camera.
+    #[arg(long)]
+    pub no_camera: bool,
+    /// Object of the simulated devices (simulated or emulated roles only).
+    #[arg(long, default_value = "box")]
+    pub object: String,
+    /// Seed of the simulated devices (simulated or emulated roles only).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
 }
 
 /// Arguments of `demo`.

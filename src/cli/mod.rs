@@ -37,6 +37,8 @@ pub struct Cli {
 pub enum Command {
     /// Run controlled-sliding trials and record one session (.mcap) per trial.
     Collect(CollectArgs),
+    /// Record the configured devices into a session without running the protocol.
+    Record(RecordArgs),
     /// Show a session's channels, message counts, rates, duration and metadata.
     Info(InfoArgs),
     /// Write one channel of a session as CSV to stdout.

@@ -15,6 +15,7 @@ mod info;
 mod label;
 mod objects;
 mod plot;
+mod record;
 pub mod replay;
 pub mod study;
 pub mod track;
@@ -33,6 +34,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
     let quiet = cli.quiet;
     match cli.command {
         Command::Collect(args) => collect::run(&args, quiet),
+        Command::Record(args) => record::run(&args, quiet),
         Command::Info(args) => info::run(&args),
         Command::Export(args) => export::run(&args),
         Command::Plot(args) => plot::run(&args),

@@ -182,6 +182,7 @@ impl ReplaySession {
             markers,
             rig_name: "replay".into(),
             extra_metadata,
+            hand_monitor: None,
         })
     }
 

@@ -11,7 +11,8 @@ use slidetrack_calibration::camera_info::read_camera_info;
 use slidetrack_calibration::{encode_jpeg, marker_pattern};
 use slidetrack_control::Rig;
 use slidetrack_core::{
-    Camera, CameraIntrinsics, Clock, HandActuator, TactileSource, TruthSource, WallClock, parse_toml,
+    Camera, CameraIntrinsics, Clock, HandActuator, HandMonitor, TactileSource, TruthSource, WallClock,
+    parse_toml,
 };
 use slidetrack_drivers::config::{
     CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, TactileDevice, V4l2CameraConfig,
@@ -20,7 +21,7 @@ use slidetrack_drivers::{CanHand, CanTactile, EmulatedSerialTactile, SerialTacti
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, Stream, stream_seed};
 
-use super::{RigSetup, TrialSpec, marker_tracking};
+use super::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
 
 /// A one-line description of the devices, for the log.
@@ -56,7 +57,11 @@ enum PreparedCamera {
 /// Slow set-up comes first; then the session clock starts, the hand and the
 /// camera open, and the tactile device, whose scans pace the trial, opens
 /// last, so that no backlog of scans builds up before the trial reads them.
-pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
+///
+/// With [`HandUse::Watch`] the hand actuator is never opened (no heartbeat,
+/// no release frames): the rig's hand is an [`UndrivenHand`], and a
+/// simulated hand is built only when something else needs the simulated world.
+pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     let Some(hw) = spec.rig.hw.as_ref() else {
         bail!(
             "--rig hw needs a [hw] table in the rig configuration (--config rig.toml) that names the devices; \
@@ -65,7 +70,8 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
     };
     tracing::info!("{}", describe(hw));
     let emulated = matches!(&hw.tactile, TactileDevice::Serial(s) if s.port == EMULATED_PORT);
-    if emulated && !matches!(hw.hand, HandDevice::Sim) {
+    let drive = hand_use == HandUse::Drive;
+    if emulated && drive && !matches!(hw.hand, HandDevice::Sim) {
         bail!(
             "hw.tactile port = \"emulated\" needs hw.hand kind = \"sim\": the emulated sensors feel the simulated hand"
         );
@@ -75,15 +81,17 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let clock: Arc<dyn Clock> = Arc::new(WallClock::start());
     let needs_world = matches!(hw.tactile, TactileDevice::Sim)
         || emulated
-        || matches!(hw.hand, HandDevice::Sim)
+        || (drive && matches!(hw.hand, HandDevice::Sim))
         || matches!(prepared, Some(PreparedCamera::Sim(_)));
     let sim = needs_world
         .then(|| SimDevices::new(&spec.rig.sim, spec.object, spec.seed, spec.trial, Arc::clone(&clock)));
+    let hand_monitor = sim.as_ref().map(|s| Box::new(s.hand_monitor()) as Box<dyn HandMonitor>);
     let (sim_tactile, sim_hand, sim_truth, world) = match sim {
         Some(s) => (Some(s.tactile), Some(s.hand), Some(s.truth), Some(s.world)),
         None => (None, None, None, None),
     };
     let hand: Box<dyn HandActuator> = match (&hw.hand, sim_hand) {
+        _ if !drive => Box::new(UndrivenHand),
         (HandDevice::Sim, Some(h)) => Box::new(h),
         (HandDevice::Can(c), _) => Box::new(CanHand::open(c)?),
         (HandDevice::Sim, None) => bail!("internal: the simulated hand was not built"),
@@ -112,7 +120,7 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let tactile_info = tactile.info();
     let rig = Rig { tactile, hand, camera, clock, truth };
     let extra_metadata = std::collections::BTreeMap::new();
-    Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata })
+    Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata, hand_monitor })
 }
 
 /// The slow set-up of the camera (marker, renderer, calibration) and its

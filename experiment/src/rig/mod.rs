@@ -13,7 +13,8 @@ use anyhow::{Context, Result, bail};
 use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig};
 use slidetrack_core::{
-    Camera, CameraIntrinsics, Clock, FingerMap, SimClock, TactileInfo, TactileSource, WallClock,
+    Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, FingerMap, FingerVolts, HandActuator,
+    HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
@@ -67,6 +68,39 @@ pub struct RigSetup {
     pub rig_name: String,
     /// Further keys of the session's metadata record (a replay names its recording).
     pub extra_metadata: BTreeMap<String, String>,
+    /// Reads the hand's state without commanding it, when the hand can tell.
+    pub hand_monitor: Option<Box<dyn HandMonitor>>,
+}
+
+/// Whether a rig drives its hand.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HandUse {
+    /// Open the hand actuator: the controlled-sliding protocol commands it.
+    Drive,
+    /// Never open the hand actuator (`slidetrack record`: something else may
+    /// drive the hand); only watch it where that needs no commands.
+    Watch,
+}
+
+/// A hand that is not driven: commands are refused, a release does nothing.
+pub struct UndrivenHand;
+
+impl HandActuator for UndrivenHand {
+    fn command(&mut self, _volts: FingerVolts) -> Result<(), DeviceError> {
+        Err(DeviceError::new(ErrorKind::Other, "hand", "this rig does not drive the hand"))
+    }
+
+    fn release(&mut self) -> Result<(), DeviceError> {
+        Ok(())
+    }
+
+    fn max_volts(&self) -> f64 {
+        0.0
+    }
+
+    fn device(&self) -> &str {
+        "undriven hand"
+    }
 }
 
 /// The simulated rig of `spec`'s trial, with its camera when asked for.
@@ -104,6 +138,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     } else {
         (None, None)
     };
+    let hand_monitor = Some(Box::new(sim.hand_monitor()) as Box<dyn HandMonitor>);
     let rig = Rig {
         tactile: Box::new(sim.tactile),
         hand: Box::new(sim.hand),
@@ -111,7 +146,14 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         clock,
         truth: Some(Box::new(sim.truth)),
     };
-    Ok(RigSetup { rig, tactile_info, markers, rig_name: "sim".into(), extra_metadata: BTreeMap::new() })
+    Ok(RigSetup {
+        rig,
+        tactile_info,
+        markers,
+        rig_name: "sim".into(),
+        extra_metadata: BTreeMap::new(),
+        hand_monitor,
+    })
 }
 
 /// Marker detection for a camera at `hand_from_camera` with `intrinsics`.
@@ -158,17 +200,27 @@ pub fn protocol_for(
 /// The rig of `spec`, simulated or real, once it is clear that its session
 /// file may be written.
 pub fn build_rig(kind: RigKind, spec: &TrialSpec) -> Result<RigSetup> {
+    build_rig_with(kind, spec, HandUse::Drive)
+}
+
+/// [`build_rig`], opening the hand actuator or not. With [`HandUse::Watch`]
+/// the rig's hand is an [`UndrivenHand`] (the simulated hand, never
+/// commanded, on the simulated rig).
+pub fn build_rig_with(kind: RigKind, spec: &TrialSpec, hand: HandUse) -> Result<RigSetup> {
     if spec.path.exists() && !spec.overwrite {
         bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
     }
     match kind {
         RigKind::Sim => build_sim_rig(spec),
         #[cfg(all(feature = "devices", target_os = "linux"))]
-        RigKind::Hw => hw::build_hw_rig(spec),
+        RigKind::Hw => hw::build_hw_rig(spec, hand),
         #[cfg(not(all(feature = "devices", target_os = "linux")))]
-        RigKind::Hw => bail!(
-            "--rig hw needs the real devices' backends, and this slidetrack was built without them \
-             (the `devices` feature, Linux only)"
-        ),
+        RigKind::Hw => {
+            let _ = hand;
+            bail!(
+                "--rig hw needs the real devices' backends, and this slidetrack was built without them \
+                 (the `devices` feature, Linux only)"
+            )
+        }
     }
 }

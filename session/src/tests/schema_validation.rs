@@ -191,6 +191,8 @@ fn integer_bounds_and_nulls_are_exactly_those_of_the_rust_types() {
                 "/position_on_axis_m",
                 "/reprojection_error_px",
             ]
+        } else if spec.schema_name == HandState::SCHEMA_NAME {
+            &["/opening"]
         } else {
             &[]
         };
