@@ -16,6 +16,8 @@ use slidetrack_core::{
 use slidetrack_drivers::config::{
     CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, TactileDevice, V4l2CameraConfig,
 };
+use slidetrack_drivers::xela_ws::config::EMULATED_URL;
+use slidetrack_drivers::xela_ws::{EmulatedXelaWsTactile, XelaWsTactile};
 use slidetrack_drivers::{CanHand, CanTactile, EmulatedSerialTactile, SerialTactile, V4l2Camera};
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, Stream, stream_seed};
@@ -29,6 +31,7 @@ pub fn describe(hw: &HwRigConfig) -> String {
         TactileDevice::Sim => "sim".to_string(),
         TactileDevice::Serial(s) => format!("serial {}", s.port),
         TactileDevice::Can(c) => format!("CAN {} board {}", c.interface, c.board),
+        TactileDevice::XelaWs(x) => format!("xela_server {}", x.url),
     };
     let camera = match &hw.camera {
         CameraDevice::None => "none".to_string(),
@@ -64,10 +67,15 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
         );
     };
     tracing::info!("{}", describe(hw));
-    let emulated = matches!(&hw.tactile, TactileDevice::Serial(s) if s.port == EMULATED_PORT);
+    let emulated = match &hw.tactile {
+        TactileDevice::Serial(s) => s.port == EMULATED_PORT,
+        TactileDevice::XelaWs(x) => x.url == EMULATED_URL,
+        _ => false,
+    };
     if emulated && !matches!(hw.hand, HandDevice::Sim) {
         bail!(
-            "hw.tactile port = \"emulated\" needs hw.hand kind = \"sim\": the emulated sensors feel the simulated hand"
+            "hw.tactile port = \"emulated\" (or url = \"emulated\") needs hw.hand kind = \"sim\": \
+             the emulated sensors feel the simulated hand"
         );
     }
     let (prepared, markers) = prepare_camera(spec, &hw.camera)?;
@@ -104,6 +112,13 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
             Box::new(SerialTactile::open(&s.port, s, s.rate_hz, Arc::clone(&clock))?)
         }
         (TactileDevice::Can(c), _) => Box::new(CanTactile::open(c, Arc::clone(&clock))?),
+        (TactileDevice::XelaWs(x), Some(t)) if emulated => {
+            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
+            Box::new(EmulatedXelaWsTactile::start(Box::new(t), x, sim_rate, Arc::clone(&clock))?)
+        }
+        (TactileDevice::XelaWs(x), _) => {
+            Box::new(XelaWsTactile::connect(&x.url, x, x.rate_hz, Arc::clone(&clock))?)
+        }
         (TactileDevice::Sim, None) => bail!("internal: the simulated tactile modules were not built"),
     };
     if world.is_some() && !emulated && !matches!(hw.tactile, TactileDevice::Sim) {
