@@ -82,14 +82,15 @@ pub struct XelaReconnectConfig {
 }
 
 impl Default for XelaReconnectConfig {
-    /// 10 attempts within 10 s, waits from 100 ms doubling up to 2 s (the
-    /// server takes a few seconds to start).
+    /// Up to 20 attempts within 3 s, waits from 100 ms doubling up to 1 s:
+    /// a trial's read blocks while the server is away, so the policy bounds
+    /// how long the hand waits for data.
     fn default() -> Self {
         XelaReconnectConfig {
             initial_backoff_ms: 100,
-            max_backoff_ms: 2000,
-            max_attempts: 10,
-            max_duration_ms: 10_000,
+            max_backoff_ms: 1000,
+            max_attempts: 20,
+            max_duration_ms: 3000,
         }
     }
 }

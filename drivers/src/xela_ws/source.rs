@@ -141,20 +141,31 @@ impl TactileSource for XelaWsTactile {
     ///   `time`, `calibrated_n` the forces when every sensor carries them.
     /// - Malformed messages are counted (`incomplete_scans`) and skipped.
     /// - `Timeout` when no scan arrives within `timeout_ms` (the first:
-    ///   `startup_timeout_ms`), also while reconnecting; `Disconnected`
-    ///   when the server stays gone beyond the reconnection policy, after
-    ///   which every call fails; `Other` (also final) when the server sends
+    ///   `startup_timeout_ms`) on an open connection. A lost connection is
+    ///   re-established within the call as `reconnect` allows (the call
+    ///   blocks meanwhile: a short outage is bridged, its messages counted
+    ///   as a gap); `Disconnected` when the server stays gone beyond the
+    ///   policy, after which every call fails; `Other` (also final) when the server sends
     ///   other sensors than configured.
     fn read(&mut self) -> Result<TactileSample, DeviceError> {
         if let Some(e) = &self.failed {
             return Err(e.clone());
         }
         let limit = if self.started { self.timeout } else { self.startup_timeout };
-        let received = self.client.next_scan(limit).inspect_err(|e| {
-            if e.kind != ErrorKind::Timeout {
-                self.failed = Some(e.clone());
+        let received = loop {
+            match self.client.next_scan(limit) {
+                Ok(r) => break r,
+                // Reconnecting: the policy decides, not the scan timeout.
+                Err(e) if e.kind == ErrorKind::Timeout && !self.client.connected() => {
+                    tracing::debug!("{e}");
+                }
+                Err(e) if e.kind == ErrorKind::Timeout => return Err(e),
+                Err(e) => {
+                    self.failed = Some(e.clone());
+                    return Err(e);
+                }
             }
-        })?;
+        };
         let sample = self.sample(&received).inspect_err(|e| self.failed = Some(e.clone()))?;
         self.started = true;
         Ok(sample)
@@ -168,3 +179,6 @@ impl TactileSource for XelaWsTactile {
         Some(self.client.counters().decoder_counters())
     }
 }
+
+#[cfg(test)]
+mod tests;
