@@ -245,6 +245,22 @@ mod tests {
     }
 
     #[test]
+    fn the_readme_xela_server_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../../README.md");
+        let kind = readme.find("url = \"ws://192.168.0.21:5000\"").expect("a xela_ws example");
+        let start = readme[..kind].rfind("```toml\n").expect("a toml block") + 8;
+        let end = start + readme[start..].find("```").expect("closed block");
+        let block: String = readme[start..end].lines().map(|l| format!("{}\n", l.trim_start())).collect();
+        let cfg: RigConfig = parse_toml(&block, "README.md").unwrap();
+        cfg.validate().unwrap();
+        let hw = cfg.hw.expect("a [hw] table");
+        assert_eq!(
+            describe(&hw),
+            "rig xela-gripper: tactile xela_server ws://192.168.0.21:5000, camera sim, hand sim"
+        );
+    }
+
+    #[test]
     fn a_rig_config_with_hw_round_trips_through_the_session_metadata() {
         let text = "[hw]\nname = \"x\"\n[hw.tactile]\nkind = \"serial\"\nport = \"emulated\"\n";
         let cfg: RigConfig = parse_toml(text, "rig.toml").unwrap();
