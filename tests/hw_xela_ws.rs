@@ -317,3 +317,24 @@ fn a_wrong_model_is_one_line_naming_the_setting() {
     let info = SessionInfo::read(&file, ReadOptions::default()).unwrap();
     assert_eq!(info.metadata["slidetrack.outcome"]["completed"], "false");
 }
+
+#[test]
+fn an_unreachable_server_or_a_bad_url_is_one_line() {
+    let dir = tempdir();
+    // A port nobody listens on: bound, then released.
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    for (url, wanted) in [
+        (format!("ws://127.0.0.1:{port}"), "is xela_server running"),
+        ("wss://127.0.0.1:5000".to_string(), "wss:// needs TLS"),
+    ] {
+        let text = two_patches(&url).replace(
+            "kind = \"xela_ws\"\n",
+            "kind = \"xela_ws\"\nreconnect = { initial_backoff_ms = 20, max_backoff_ms = 50, max_duration_ms = 300 }\n",
+        );
+        let rig = write(dir.path(), &text);
+        let e = common::fails(&["collect", "--rig", "hw", "--config", &rig, "--duration", "1", "--out", out]);
+        assert!(e.contains(&url) && e.contains(wanted), "{e}");
+    }
+}
