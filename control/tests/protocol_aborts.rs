@@ -20,7 +20,7 @@ fn protocol() -> Protocol {
 }
 
 fn scan(k: u64, z_counts: u16) -> TactileSample {
-    TactileSample { t: TimeNs(k * 10_000_000), sequence: k, raw: vec![[BASE, BASE, z_counts]; 3] }
+    TactileSample::new(TimeNs(k * 10_000_000), k, vec![[BASE, BASE, z_counts]; 3])
 }
 
 /// Feeds open-hand scans until the protocol leaves the zero phase; returns the next scan index.

@@ -364,7 +364,7 @@ impl FingerMap {
 }
 
 /// One scan of every taxel of every tactile sensor.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TactileSample {
     /// Acquisition time on the session clock.
     pub t: TimeNs,
@@ -373,6 +373,23 @@ pub struct TactileSample {
     /// Raw counts `[x, y, z]` of every taxel, in the order of the source's
     /// [`TactileLayout`] (sensor after sensor, taxels row by row).
     pub raw: Vec<RawTaxel>,
+    /// The device's own time stamp of the scan (s, on the device's clock:
+    /// `xela_server`'s Unix time), for devices that send one. Kept beside
+    /// `t`, never used as the session time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device_time_s: Option<f64>,
+    /// Calibrated forces `[x, y, z]` (N) of every taxel, in the order of
+    /// `raw`, for devices that compute them (`xela_server` with its force
+    /// calibration on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibrated_n: Option<Vec<[f64; 3]>>,
+}
+
+impl TactileSample {
+    /// A scan of raw counts only, as most devices send.
+    pub fn new(t: TimeNs, sequence: u64, raw: Vec<RawTaxel>) -> TactileSample {
+        TactileSample { t, sequence, raw, device_time_s: None, calibrated_n: None }
+    }
 }
 
 /// Static facts about a tactile source.

@@ -205,7 +205,7 @@ impl TactileSource for CanTactile {
             match pick_board_taxels(&scan.taxels, &self.board_taxels) {
                 Some(raw) => {
                     self.started = true;
-                    return Ok(TactileSample { t: scan.t, sequence: scan.sequence, raw });
+                    return Ok(TactileSample::new(scan.t, scan.sequence, raw));
                 }
                 None => self.assembler.count_unusable_scan(),
             }

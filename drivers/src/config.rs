@@ -4,7 +4,7 @@
 //! [hw]
 //! name = "lab-hand"
 //! [hw.tactile]
-//! kind = "serial"            # or "can", or "sim"
+//! kind = "serial"            # or "can", "xela_ws" (see `crate::xela_ws::config`), or "sim"
 //! port = "/dev/ttyACM0"      # "emulated": the simulated rig behind a pseudo-terminal
 //! taxels_per_module = 16
 //! # [[hw.tactile.sensors]] tables (see `crate::sensors`) name each module;
@@ -28,6 +28,7 @@ use crate::can_protocol::{CanLayoutError, XelaCanLayout};
 use crate::hand_can::{HandCanIds, HandFrameError};
 use crate::sensors::{HwSensor, SensorConfigError, default_fingers, default_sensors, validate_sensors};
 use crate::serial_protocol::MAX_TAXELS;
+use crate::xela_ws::config::{EMULATED_URL, XelaConfigError, XelaWsTactileConfig};
 
 /// The port name that selects the serial emulator instead of a device.
 pub const EMULATED_PORT: &str = "emulated";
@@ -67,6 +68,9 @@ pub enum TactileDevice {
     Serial(SerialTactileConfig),
     /// uSkin board on CAN (XELA layout).
     Can(CanTactileConfig),
+    /// XELA sensors read through XELA's `xela_server` (WebSocket JSON).
+    #[serde(rename = "xela_ws")]
+    XelaWs(XelaWsTactileConfig),
 }
 
 /// uSkin-style modules on a serial port.
@@ -357,6 +361,9 @@ pub enum HwConfigError {
         /// Taxels of the board.
         taxels: u16,
     },
+    /// A `kind = "xela_ws"` table that cannot work.
+    #[error(transparent)]
+    XelaWs(#[from] XelaConfigError),
     /// Bad CAN ids of the tactile board.
     #[error("hw.tactile: {0}")]
     CanLayout(#[from] CanLayoutError),
@@ -378,6 +385,7 @@ impl HwRigConfig {
     pub fn validate(&self) -> Result<(), HwConfigError> {
         match &self.tactile {
             TactileDevice::Sim => {}
+            TactileDevice::XelaWs(x) => x.validate()?,
             TactileDevice::Serial(s) => {
                 check("tactile.rate_hz", s.rate_hz, s.rate_hz.is_finite() && s.rate_hz > 0.0, "> 0 Hz")?;
                 let n = f64::from(s.taxels_per_module);
@@ -448,6 +456,7 @@ impl HwRigConfig {
         match &self.tactile {
             TactileDevice::Serial(s) if s.port != EMULATED_PORT => s.rate_hz,
             TactileDevice::Can(c) => c.rate_hz,
+            TactileDevice::XelaWs(x) if x.url != EMULATED_URL => x.rate_hz,
             _ => sim_rate_hz,
         }
     }

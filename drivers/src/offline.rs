@@ -122,7 +122,7 @@ impl<R: Read> Iterator for CanLogDecoder<R> {
             let Some((t, frame)) = self.frame(record) else { continue };
             let Some(scan) = self.assembler.push(t, &frame) else { continue };
             match pick_board_taxels(&scan.taxels, &self.board_taxels) {
-                Some(raw) => return Some(TactileSample { t: scan.t, sequence: scan.sequence, raw }),
+                Some(raw) => return Some(TactileSample::new(scan.t, scan.sequence, raw)),
                 None => self.assembler.count_unusable_scan(),
             }
         }
@@ -173,7 +173,7 @@ impl CaptureScans {
             let t = TimeNs((sequence.saturating_sub(first) as f64 * self.period_ns).round() as u64)
                 .max(self.last_t);
             self.last_t = t;
-            self.ready.push_back(TactileSample { t, sequence, raw });
+            self.ready.push_back(TactileSample::new(t, sequence, raw));
         }
     }
 }

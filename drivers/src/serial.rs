@@ -106,7 +106,7 @@ impl SerialTactile {
         decoder.feed(&buf[..n], |event| match event {
             SerialEvent::Frame(frame) => {
                 if let Some((sequence, raw)) = assembler.push(&frame) {
-                    ready.push_back(TactileSample { t, sequence: unwrapper.unwrap(sequence), raw });
+                    ready.push_back(TactileSample::new(t, unwrapper.unwrap(sequence), raw));
                 }
             }
             other => tracing::debug!("{device}: {other:?}"),

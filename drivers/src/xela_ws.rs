@@ -15,6 +15,11 @@
 //!   deliberately does not implement
 //!   [`TactileSource`](slidetrack_core::TactileSource): the rig's tactile
 //!   source wraps it.
+//! - [`config`]: `[hw.tactile]` with `kind = "xela_ws"` ([`config::XelaWsTactileConfig`]).
+//! - `source` (feature `devices`, Linux): `XelaWsTactile`, the rig's
+//!   [`TactileSource`](slidetrack_core::TactileSource) over the client;
+//!   `emulated`: the same fed by the simulated rig through the emulator
+//!   (`url = "emulated"`).
 //! - `emulator` (feature `devices`, Linux): [`XelaWsEmulator`], a local
 //!   WebSocket server replaying messages at their pace, with faults
 //!   (disconnections, malformed JSON, counter gaps, wrong models), for tests
@@ -22,15 +27,24 @@
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod client;
+pub mod config;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod emulated;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod emulator;
 pub mod protocol;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod source;
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use client::{ReconnectPolicy, XelaReceived, XelaWsClient, XelaWsOptions};
 #[cfg(all(feature = "devices", target_os = "linux"))]
-pub use emulator::{EmulatedMessage, XelaWsEmulator, XelaWsEmulatorConfig};
+pub use emulated::EmulatedXelaWsTactile;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use emulator::{EmulatedMessage, LiveMessage, XelaWsEmulator, XelaWsEmulatorConfig};
 pub use protocol::{
     Expected, ExpectedSensor, MessageGap, WireStyle, XelaCounters, XelaDecoder, XelaError, XelaEvent,
     XelaScan, XelaSensorScan,
 };
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use source::XelaWsTactile;

@@ -12,7 +12,8 @@ use slidetrack_core::{
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelHandle, ChannelMessage, CompressedImage, FingerSetpoint,
     GraspControl, HandCommand, HandState, Logger, ProtocolEvent as EventMsg, SimTruth as TruthMsg,
-    TactileDecoder, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, sensor_taxels,
+    TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileTare, TactileZeroed, TaxelLayout,
+    sensor_taxels,
 };
 
 use crate::marker::MarkerSource;
@@ -56,6 +57,10 @@ struct Channels {
     aruco: Option<ChannelHandle<ArucoDetection>>,
     /// `/tactile/decoder`, registered with the first counters.
     decoder: Option<ChannelHandle<TactileDecoder>>,
+    /// `/tactile/calibrated`, registered with the first scan that carries forces.
+    calibrated: Option<ChannelHandle<TactileCalibrated>>,
+    /// `/tactile/device_time`, registered with the first scan that carries a device time.
+    device_time: Option<ChannelHandle<TactileDeviceTime>>,
 }
 
 /// Live work on a trial's data beside the recording (the online trackers of
@@ -149,6 +154,8 @@ impl<'a> SessionObserver<'a> {
             calibration: camera.as_ref().map(|_| logger.register::<CameraCalibration>(none())).transpose()?,
             aruco: camera.as_ref().map(|_| logger.register::<ArucoDetection>(none())).transpose()?,
             decoder: None,
+            calibrated: None,
+            device_time: None,
         };
         if let (Some(c), Some(m)) = (&ch.calibration, &camera) {
             logger.log_json(
@@ -193,6 +200,31 @@ impl<'a> SessionObserver<'a> {
         &self.stats
     }
 
+    /// The device's time stamp and calibrated forces of `s`, when it has
+    /// them, each on its own channel (registered on first use: sources
+    /// without them add no channel).
+    fn log_device_extras(&mut self, s: &TactileSample, seq: u32) -> Result<(), ObserverError> {
+        if let Some(msg) = TactileDeviceTime::new(s) {
+            let ch = match &self.ch.device_time {
+                Some(ch) => ch,
+                None => {
+                    self.ch.device_time.insert(self.logger.register::<TactileDeviceTime>(BTreeMap::new())?)
+                }
+            };
+            self.logger.log_json(ch, s.t, s.t, seq, &msg)?;
+        }
+        if let Some(msg) = TactileCalibrated::new(s, &self.layout) {
+            let ch = match &self.ch.calibrated {
+                Some(ch) => ch,
+                None => {
+                    self.ch.calibrated.insert(self.logger.register::<TactileCalibrated>(BTreeMap::new())?)
+                }
+            };
+            self.logger.log_json(ch, s.t, s.t, seq, &msg)?;
+        }
+        Ok(())
+    }
+
     fn log<T: ChannelMessage>(&self, ch: &ChannelHandle<T>, t: TimeNs, msg: &T) -> Result<(), ObserverError> {
         self.logger.log_json(ch, t, t, 0, msg)?;
         Ok(())
@@ -218,6 +250,7 @@ impl TrialObserver for SessionObserver<'_> {
         self.stats.scans += 1;
         let seq = (s.sequence & u64::from(u32::MAX)) as u32;
         self.logger.log_json(&self.ch.raw, s.t, s.t, seq, &TactileRaw::new(s, &self.layout))?;
+        self.log_device_extras(s, seq)?;
         (self.progress)(s.t);
         Ok(())
     }

@@ -26,6 +26,8 @@ pub fn channel_specs() -> Vec<ChannelSpec> {
         ChannelSpec::of::<TactileTare>(),
         ChannelSpec::of::<TactileZeroed>(),
         ChannelSpec::of::<TactileDecoder>(),
+        ChannelSpec::of::<TactileCalibrated>(),
+        ChannelSpec::of::<TactileDeviceTime>(),
         ChannelSpec::of::<GraspControl>(),
         ChannelSpec::of::<HandCommand>(),
         ChannelSpec::of::<HandState>(),
@@ -281,6 +283,63 @@ impl From<&slidetrack_core::DecoderCounters> for TactileDecoder {
 impl ChannelMessage for TactileDecoder {
     const TOPIC: &'static str = "/tactile/decoder";
     const SCHEMA_NAME: &'static str = "slidetrack.TactileDecoder";
+    fn json_schema() -> Value {
+        derived::<Self>(Self::SCHEMA_NAME)
+    }
+}
+
+/// `/tactile/calibrated`: the forces a device computed from one scan
+/// (`xela_server` with its force calibration on), every taxel of every
+/// sensor, in newtons. Written only for scans that carry them, at the
+/// `log_time` of their `/tactile/raw` message.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct TactileCalibrated {
+    /// The device's scan counter, as in `/tactile/raw`.
+    pub sequence: u64,
+    /// Force on every taxel (N), per sensor in layout order, in the
+    /// sensor's frame as the device reports it.
+    pub sensors: SensorTaxels<f64>,
+}
+
+impl TactileCalibrated {
+    /// The message of `sample`, a scan of `layout`, if it carries forces.
+    pub fn new(sample: &TactileSample, layout: &TactileLayout) -> Option<TactileCalibrated> {
+        let forces = sample.calibrated_n.as_ref()?;
+        Some(TactileCalibrated { sequence: sample.sequence, sensors: sensor_taxels(layout, forces) })
+    }
+}
+
+impl ChannelMessage for TactileCalibrated {
+    const TOPIC: &'static str = "/tactile/calibrated";
+    const SCHEMA_NAME: &'static str = "slidetrack.TactileCalibrated";
+    fn json_schema() -> Value {
+        derived::<Self>(Self::SCHEMA_NAME)
+    }
+}
+
+/// `/tactile/device_time`: the device's own time stamp of a scan, for
+/// devices that send one (`xela_server`'s `time`), at the `log_time` of the
+/// scan's `/tactile/raw` message (its arrival on the session clock).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct TactileDeviceTime {
+    /// The device's scan counter, as in `/tactile/raw`.
+    pub sequence: u64,
+    /// The device's time stamp (s, on the device's clock: Unix time for `xela_server`).
+    pub device_time_s: f64,
+}
+
+impl TactileDeviceTime {
+    /// The message of `sample`, if it carries a device time stamp.
+    pub fn new(sample: &TactileSample) -> Option<TactileDeviceTime> {
+        sample
+            .device_time_s
+            .map(|device_time_s| TactileDeviceTime { sequence: sample.sequence, device_time_s })
+    }
+}
+
+impl ChannelMessage for TactileDeviceTime {
+    const TOPIC: &'static str = "/tactile/device_time";
+    const SCHEMA_NAME: &'static str = "slidetrack.TactileDeviceTime";
     fn json_schema() -> Value {
         derived::<Self>(Self::SCHEMA_NAME)
     }

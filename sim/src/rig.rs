@@ -140,7 +140,7 @@ impl TactileSource for SimTactile {
             *slot = Some(truth);
         }
         self.sequence = sequence;
-        Ok(TactileSample { t, sequence, raw })
+        Ok(TactileSample::new(t, sequence, raw))
     }
 
     fn info(&self) -> TactileInfo {

@@ -19,7 +19,7 @@ impl TactileSource for Counting {
     fn read(&mut self) -> Result<TactileSample, DeviceError> {
         std::thread::sleep(self.period);
         self.sequence += 1;
-        Ok(TactileSample { t: TimeNs::ZERO, sequence: self.sequence, raw: values(self.sequence) })
+        Ok(TactileSample::new(TimeNs::ZERO, self.sequence, values(self.sequence)))
     }
     fn info(&self) -> TactileInfo {
         let sensors = ["a", "b", "c"].map(|n| SensorLayout::grid(n, "test", "thumb", 2, 2)).to_vec();

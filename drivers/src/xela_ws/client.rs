@@ -203,6 +203,12 @@ impl XelaWsClient {
         XelaCounters { reconnects: self.reconnects, ..self.decoder.counters() }
     }
 
+    /// Whether the connection is up: false while it is being re-established
+    /// (and after a final error).
+    pub fn connected(&self) -> bool {
+        self.failed.is_none() && matches!(self.link, Link::Up(_))
+    }
+
     /// The URL connected to.
     pub fn url(&self) -> &str {
         &self.url

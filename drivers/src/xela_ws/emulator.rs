@@ -11,10 +11,15 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use crossbeam_channel::Receiver;
 use tungstenite::protocol::Message;
 use tungstenite::{Error as WsError, WebSocket};
 
+pub use live::LiveMessage;
+
 use super::protocol::{ExpectedSensor, WireStyle, XelaScan, XelaSensorScan, encode_scan, encode_welcome};
+
+mod live;
 
 /// How often the server thread looks at its stop flag while it waits (ms).
 const POLL: Duration = Duration::from_millis(2);
@@ -123,6 +128,29 @@ impl XelaWsEmulator {
         let server = Server {
             listener,
             config,
+            stop: Arc::clone(&stop),
+            sent: Arc::clone(&sent),
+            connections: Arc::clone(&connections),
+        };
+        let thread =
+            std::thread::Builder::new().name("xela-ws-emulator".into()).spawn(move || server.run())?;
+        Ok(XelaWsEmulator { addr, stop, sent, connections, thread: Some(thread) })
+    }
+
+    /// Listens on 127.0.0.1 on a free port and sends what `feed` brings as
+    /// it comes, after `welcome` on each connection (see [`LiveMessage`]).
+    pub fn start_live(welcome: Option<String>, feed: Receiver<LiveMessage>) -> io::Result<XelaWsEmulator> {
+        let listener = TcpListener::bind(SocketAddr::from(([127, 0, 0, 1], 0)))?;
+        listener.set_nonblocking(true)?;
+        let addr = listener.local_addr()?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let sent = Arc::new(AtomicUsize::new(0));
+        let connections = Arc::new(AtomicUsize::new(0));
+        let server = live::LiveServer {
+            listener: Some(listener),
+            addr,
+            welcome,
+            feed,
             stop: Arc::clone(&stop),
             sent: Arc::clone(&sent),
             connections: Arc::clone(&connections),

@@ -74,7 +74,7 @@ impl TactileSource for ReplayTactile {
         let raw = scan.message.scan(&self.info.layout).map_err(|e| {
             DeviceError::new(ErrorKind::Corrupt, &self.info.device, format!("a recorded scan at {t}: {e}"))
         })?;
-        Ok(TactileSample { t, sequence: scan.message.sequence, raw })
+        Ok(TactileSample::new(t, scan.message.sequence, raw))
     }
 
     fn info(&self) -> TactileInfo {

@@ -17,6 +17,8 @@ use slidetrack_core::{
 use slidetrack_drivers::config::{
     CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, TactileDevice, V4l2CameraConfig,
 };
+use slidetrack_drivers::xela_ws::config::EMULATED_URL;
+use slidetrack_drivers::xela_ws::{EmulatedXelaWsTactile, XelaWsTactile};
 use slidetrack_drivers::{CanHand, CanTactile, EmulatedSerialTactile, SerialTactile, V4l2Camera};
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, Stream, stream_seed};
@@ -30,6 +32,7 @@ pub fn describe(hw: &HwRigConfig) -> String {
         TactileDevice::Sim => "sim".to_string(),
         TactileDevice::Serial(s) => format!("serial {}", s.port),
         TactileDevice::Can(c) => format!("CAN {} board {}", c.interface, c.board),
+        TactileDevice::XelaWs(x) => format!("xela_server {}", x.url),
     };
     let camera = match &hw.camera {
         CameraDevice::None => "none".to_string(),
@@ -69,11 +72,16 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         );
     };
     tracing::info!("{}", describe(hw));
-    let emulated = matches!(&hw.tactile, TactileDevice::Serial(s) if s.port == EMULATED_PORT);
+    let emulated = match &hw.tactile {
+        TactileDevice::Serial(s) => s.port == EMULATED_PORT,
+        TactileDevice::XelaWs(x) => x.url == EMULATED_URL,
+        _ => false,
+    };
     let drive = hand_use == HandUse::Drive;
     if emulated && drive && !matches!(hw.hand, HandDevice::Sim) {
         bail!(
-            "hw.tactile port = \"emulated\" needs hw.hand kind = \"sim\": the emulated sensors feel the simulated hand"
+            "hw.tactile port = \"emulated\" (or url = \"emulated\") needs hw.hand kind = \"sim\": \
+             the emulated sensors feel the simulated hand"
         );
     }
     let (prepared, markers) = prepare_camera(spec, &hw.camera)?;
@@ -112,6 +120,13 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
             Box::new(SerialTactile::open(&s.port, s, s.rate_hz, Arc::clone(&clock))?)
         }
         (TactileDevice::Can(c), _) => Box::new(CanTactile::open(c, Arc::clone(&clock))?),
+        (TactileDevice::XelaWs(x), Some(t)) if emulated => {
+            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
+            Box::new(EmulatedXelaWsTactile::start(Box::new(t), x, sim_rate, Arc::clone(&clock))?)
+        }
+        (TactileDevice::XelaWs(x), _) => {
+            Box::new(XelaWsTactile::connect(&x.url, x, x.rate_hz, Arc::clone(&clock))?)
+        }
         (TactileDevice::Sim, None) => bail!("internal: the simulated tactile modules were not built"),
     };
     if world.is_some() && !emulated && !matches!(hw.tactile, TactileDevice::Sim) {
@@ -234,6 +249,22 @@ mod tests {
         assert_eq!(
             describe(&hw),
             "rig lab-hand: tactile serial /dev/ttyACM0, camera V4L2 /dev/video0, hand CAN can0"
+        );
+    }
+
+    #[test]
+    fn the_readme_xela_server_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../../README.md");
+        let kind = readme.find("url = \"ws://192.168.0.21:5000\"").expect("a xela_ws example");
+        let start = readme[..kind].rfind("```toml\n").expect("a toml block") + 8;
+        let end = start + readme[start..].find("```").expect("closed block");
+        let block: String = readme[start..end].lines().map(|l| format!("{}\n", l.trim_start())).collect();
+        let cfg: RigConfig = parse_toml(&block, "README.md").unwrap();
+        cfg.validate().unwrap();
+        let hw = cfg.hw.expect("a [hw] table");
+        assert_eq!(
+            describe(&hw),
+            "rig xela-gripper: tactile xela_server ws://192.168.0.21:5000, camera sim, hand sim"
         );
     }
 

@@ -1,5 +1,5 @@
 //! One or two messages of every channel that [`EveryChannel`] leaves out
-//! (decoder counters, ground truth, estimates, RGB-D and vision tracking),
+//! (decoder counters, calibrated forces, device times, ground truth, estimates, RGB-D and vision tracking),
 //! so that a test can record a message of every channel of [`channel_specs`].
 
 use std::collections::BTreeMap;
@@ -45,6 +45,10 @@ pub(super) fn log_other_channels(rec: &Recorder) {
         let counters =
             TactileDecoder { frames: 100 + i, crc_errors: i, gaps: 2, ..TactileDecoder::default() };
         log_one(rec, t, counters);
+        let force = |f: f64| Xyz { x: 0.125 * f, y: -0.25, z: 1.5 + k };
+        let sensors = vec![SensorValues { name: "left".into(), taxels: vec![force(1.0), force(2.0)] }];
+        log_one(rec, t, TactileCalibrated { sequence: 7 + i, sensors });
+        log_one(rec, t, TactileDeviceTime { sequence: 7 + i, device_time_s: 1_768_296_808.5 + 0.01 * k });
         let truth = GroundTruthSliding {
             position: 0.001 * k,
             velocity: 0.02,
