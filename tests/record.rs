@@ -102,3 +102,57 @@ fn bad_arguments_are_one_line_errors() {
     ok(&["-q", "record", "--rig", "sim", "--duration", "0.1", "--out", f]);
     assert!(fails(&["record", "--rig", "sim", "--duration", "0.1", "--out", f]).contains("--overwrite"));
 }
+
+/// The simulated 4x4 patches served by a local `xela_server` emulator that
+/// sends a malformed message every 40 scans and goes away after `gone_s`.
+fn xela_rig(dir: &Path, gone_s: Option<f64>) -> String {
+    let gone = gone_s.map_or(String::new(), |s| format!("disconnect_after_s = {s}\n"));
+    write_rig(
+        dir,
+        &format!(
+            "[hw]\nname = \"xela-dry-run\"\n[hw.tactile]\nkind = \"xela_ws\"\nurl = \"emulated\"\n\
+             reconnect = {{ initial_backoff_ms = 20, max_backoff_ms = 50, max_duration_ms = 300 }}\n\
+             fingers = {{ thumb = {{ sensor = \"thumb\" }}, index = {{ sensor = \"index\" }}, middle = {{ sensor = \"middle\" }} }}\n\
+             [hw.tactile.emulator]\nmalformed_every = 40\n{gone}\
+             [hw.camera]\nkind = \"none\"\n[hw.hand]\nkind = \"can\"\ninterface = \"slidetrack-no-such-can\"\n\
+             {SIM_PATCH_4X4}"
+        ),
+    )
+}
+
+#[test]
+fn a_xela_server_is_recorded_with_every_taxel_and_malformed_messages_counted() {
+    let dir = tempdir();
+    let rig = xela_rig(dir.path(), None);
+    let file = dir.path().join("xela.mcap");
+    let f = file.to_str().unwrap();
+    let line = ok(&["-q", "record", "--config", &rig, "--duration", "1.5", "--out", f]);
+    assert!(line.contains("complete"), "{line}");
+    assert!(line.contains("tactile decoder"), "the decoder's counters are reported: {line}");
+
+    let info = SessionInfo::read(&file, ReadOptions::default()).unwrap();
+    assert_eq!(info.metadata["slidetrack.outcome"]["completed"], "true");
+    let raw = read_channel::<TactileRaw>(&file, ReadOptions::default()).unwrap();
+    assert!(raw.len() > 100, "{} scans in 1.5 s at 100 Hz", raw.len());
+    assert!(raw.iter().all(|(_, r)| r.sensors.iter().map(|s| s.taxels.len()).sum::<usize>() == 48));
+    let decoder = read_channel::<slidetrack_session::TactileDecoder>(&file, ReadOptions::default()).unwrap();
+    let last = decoder.last().expect("the decoder's counters").1;
+    assert!(last.incomplete_scans >= 2, "malformed messages counted: {last:?}");
+    assert!(info.channel("/tactile/device_time").is_some(), "the server's time is kept");
+}
+
+#[test]
+fn a_xela_server_that_goes_away_ends_the_recording_with_a_readable_file() {
+    let dir = tempdir();
+    let rig = xela_rig(dir.path(), Some(0.8));
+    let file = dir.path().join("gone.mcap");
+    let f = file.to_str().unwrap();
+    let out = run(&["-q", "record", "--config", &rig, "--duration", "10", "--out", f]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("disconnected") && stderr.contains("ws://127.0.0.1"), "{stderr}");
+    let info = SessionInfo::read(&file, ReadOptions::default()).expect("a finished, readable file");
+    assert_eq!(info.metadata["slidetrack.outcome"]["completed"], "false");
+    let raw = read_channel::<TactileRaw>(&file, ReadOptions::default()).unwrap();
+    assert!((40..=100).contains(&raw.len()), "{} scans in about 0.8 s", raw.len());
+}

@@ -12,8 +12,8 @@ use slidetrack_core::{
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelHandle, ChannelMessage, CompressedImage, FingerSetpoint,
     GraspControl, HandCommand, HandState, Logger, ProtocolEvent as EventMsg, SimTruth as TruthMsg,
-    TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileTare, TactileZeroed, TaxelLayout,
-    sensor_taxels,
+    TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileTare, TactileZeroed,
+    TaxelLayout, sensor_taxels,
 };
 
 use crate::marker::MarkerSource;
