@@ -27,7 +27,7 @@ const NO_NPY: &str = "train/data_sample_2021-11-24-15-55-09";
 const TEST: &str = "test/data_sample_2021-11-25-13-09-52";
 
 fn session_of(out: &Path, rel: &str) -> PathBuf {
-    out.join(format!("{}.mcap", Path::new(rel).file_name().unwrap().to_str().unwrap()))
+    out.join(format!("{}.mcap", Path::new(rel).file_name().and_then(|n| n.to_str()).expect("a folder name")))
 }
 
 fn mcap_files(dir: &Path) -> Vec<String> {
@@ -85,20 +85,20 @@ fn imported_sequences_hold_every_csv_value_for_the_official_reader() {
 /// A copy of the test sequence in `dir`, with `edit` applied.
 fn broken_copy(dir: &Path, edit: impl FnOnce(&Path)) -> PathBuf {
     let copy = dir.join("data_sample_broken");
-    std::fs::create_dir_all(&copy).unwrap();
-    for entry in std::fs::read_dir(sequence(TEST)).unwrap() {
-        let entry = entry.unwrap();
-        std::fs::copy(entry.path(), copy.join(entry.file_name())).unwrap();
+    std::fs::create_dir_all(&copy).expect("a writable temporary folder");
+    for entry in std::fs::read_dir(sequence(TEST)).expect("the test sequence") {
+        let entry = entry.expect("a readable folder entry");
+        std::fs::copy(entry.path(), copy.join(entry.file_name())).expect("a copied file");
     }
     edit(&copy);
     copy
 }
 
 fn replace_line(path: &Path, line: usize, f: impl FnOnce(&str) -> String) {
-    let text = std::fs::read_to_string(path).unwrap();
+    let text = std::fs::read_to_string(path).expect("a readable CSV");
     let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
     lines[line - 1] = f(&lines[line - 1]);
-    std::fs::write(path, lines.join("\n") + "\n").unwrap();
+    std::fs::write(path, lines.join("\n") + "\n").expect("a writable CSV");
 }
 
 // Catches: a panic or a multi-line dump on bad input, an error that does not
@@ -192,4 +192,62 @@ fn labelling_an_imported_sequence_bridges_the_unseen_rows_and_follows_marker_1()
     let span =
         p.iter().copied().fold(f64::NEG_INFINITY, f64::max) - p.iter().copied().fold(f64::INFINITY, f64::min);
     assert!(span > 0.02, "the object moves along the axis ({span} m)");
+}
+
+// Catches: train or eval needing what imported sessions lack (protocol
+// events, a release, a common 5 % rate) or eval replaying a protocol that
+// never ran; and a rate tolerance that is not kept in the model (eval would
+// then refuse the sessions the model was trained to accept).
+#[test]
+fn train_and_eval_run_on_imported_labelled_sequences() {
+    let dir = tempdir();
+    let (train, test) = (dir.path().join("train"), dir.path().join("test"));
+    let train_dirs: Vec<String> =
+        [WITH_TAIL, NO_NPY, LONG_GAPS].iter().map(|r| sequence(r).display().to_string()).collect();
+    let mut args = vec!["-q", "import", "xela-csv"];
+    args.extend(train_dirs.iter().map(String::as_str));
+    args.extend(["--out", train.to_str().unwrap()]);
+    ok(&args);
+    ok(&["-q", "import", "xela-csv", sequence(TEST).to_str().unwrap(), "--out", test.to_str().unwrap()]);
+    let mut label = vec!["-q", "label"];
+    let files: Vec<String> = [WITH_TAIL, NO_NPY, LONG_GAPS]
+        .iter()
+        .map(|r| session_of(&train, r))
+        .chain([session_of(&test, TEST)])
+        .map(|p| p.display().to_string())
+        .collect();
+    label.extend(files.iter().map(String::as_str));
+    ok(&label);
+    let model = dir.path().join("m.safetensors");
+    let common = [
+        "-q",
+        "train",
+        train.to_str().unwrap(),
+        "--channels",
+        "sensor1.mean.z,sensor2.mean.z,sensor1.mean.x,sensor2.mean.y",
+        "--rate-hz",
+        "10",
+        "--schedule",
+        "2:1,4:1",
+        "--threads",
+        "1",
+        "--out",
+        model.to_str().unwrap(),
+    ];
+    // 10.0 and 7.9 Hz of tactile refreshes: more than the default 5 % apart.
+    let refused = fails(&common);
+    assert!(refused.contains("--rate-tolerance"), "{refused}");
+    ok(&[&common[..], &["--rate-tolerance", "0.3"]].concat());
+    let report: serde_json::Value = serde_json::from_str(&ok(&[
+        "eval",
+        "--model",
+        model.to_str().unwrap(),
+        test.to_str().unwrap(),
+        "--json",
+    ]))
+    .unwrap();
+    let s = &report["sessions"][0];
+    assert!(s["steps"].as_u64().unwrap() > 40, "{report}");
+    assert!(s["position_rmse_cm"].as_f64().unwrap().is_finite(), "{report}");
+    assert!(s["baseline_position_rmse_cm"].as_f64().unwrap() > 0.0, "{report}");
 }

@@ -70,10 +70,7 @@ pub fn evaluate(model: &DekfModel, files: &[PathBuf], truth: TruthSource) -> Res
     let mut sessions = Vec::new();
     for f in files {
         let data = load(f, Some(truth))?;
-        // Sessions recorded without the protocol (imports of recordings made
-        // elsewhere) have nothing to replay it on: the dEKF runs on their
-        // recorded baseline-subtracted scans through the same stage.
-        let outputs = if has_protocol(f)? { replay_dekf(f, model)? } else { run(model, &data)? };
+        let outputs = dekf_outputs(model, f, &data)?;
         let main = score_outputs(&outputs, &data)?;
         let sim = if truth != TruthSource::Sim {
             match load(f, Some(TruthSource::Sim)) {
@@ -95,8 +92,17 @@ pub fn evaluate(model: &DekfModel, files: &[PathBuf], truth: TruthSource) -> Res
     })
 }
 
+/// The estimates of `model` on the session at `path` (loaded as `data`):
+/// replayed through the replay rig as `track` would have run it live, or,
+/// on sessions recorded without the protocol (imports of recordings made
+/// elsewhere, which have nothing to replay it on), run over their recorded
+/// baseline-subtracted scans through the same stage.
+pub fn dekf_outputs(model: &DekfModel, path: &Path, data: &SessionData) -> Result<Vec<(TimeNs, DekfOutput)>> {
+    if has_protocol(path)? { replay_dekf(path, model) } else { run(model, data) }
+}
+
 /// True when the session at `path` recorded the protocol's events.
-fn has_protocol(path: &Path) -> Result<bool> {
+pub fn has_protocol(path: &Path) -> Result<bool> {
     let info = SessionInfo::read(path, ReadOptions::default())?;
     Ok(info.channel(ProtocolEvent::TOPIC).is_some())
 }
