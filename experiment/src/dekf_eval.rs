@@ -7,6 +7,7 @@ use anyhow::{Result, bail};
 use serde::Serialize;
 use slidetrack_core::TimeNs;
 use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
+use slidetrack_session::{ChannelMessage, ProtocolEvent, ReadOptions, SessionInfo};
 
 use crate::dataset::{SessionData, TruthSource, load};
 use crate::dekf_run::{CM, Scores, mean_scores, run, score};
@@ -69,7 +70,7 @@ pub fn evaluate(model: &DekfModel, files: &[PathBuf], truth: TruthSource) -> Res
     let mut sessions = Vec::new();
     for f in files {
         let data = load(f, Some(truth))?;
-        let outputs = replay_dekf(f, model)?;
+        let outputs = dekf_outputs(model, f, &data)?;
         let main = score_outputs(&outputs, &data)?;
         let sim = if truth != TruthSource::Sim {
             match load(f, Some(TruthSource::Sim)) {
@@ -89,6 +90,21 @@ pub fn evaluate(model: &DekfModel, files: &[PathBuf], truth: TruthSource) -> Res
         sim: (!sims.is_empty()).then(|| mean_scores(&sims)),
         sessions,
     })
+}
+
+/// The estimates of `model` on the session at `path` (loaded as `data`):
+/// replayed through the replay rig as `track` would have run it live, or,
+/// on sessions recorded without the protocol (imports of recordings made
+/// elsewhere, which have nothing to replay it on), run over their recorded
+/// baseline-subtracted scans through the same stage.
+pub fn dekf_outputs(model: &DekfModel, path: &Path, data: &SessionData) -> Result<Vec<(TimeNs, DekfOutput)>> {
+    if has_protocol(path)? { replay_dekf(path, model) } else { run(model, data) }
+}
+
+/// True when the session at `path` recorded the protocol's events.
+pub fn has_protocol(path: &Path) -> Result<bool> {
+    let info = SessionInfo::read(path, ReadOptions::default())?;
+    Ok(info.channel(ProtocolEvent::TOPIC).is_some())
 }
 
 fn row(name: &str, s: &Scores) -> String {

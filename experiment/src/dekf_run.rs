@@ -98,13 +98,31 @@ pub fn sequence(model: &DekfModel, inputs: &Inputs) -> Result<Sequence> {
     Ok(Sequence { measurements, valid, truth })
 }
 
+/// Default largest relative difference between a session's tactile rate and
+/// the model's.
+pub const DEFAULT_RATE_TOLERANCE: f64 = 0.05;
+/// Key of the model's training metadata holding a rate tolerance other than
+/// [`DEFAULT_RATE_TOLERANCE`] (`train --rate-tolerance`).
+pub const RATE_TOLERANCE_KEY: &str = "rate_tolerance";
+
+/// The largest relative difference between a session's tactile rate and
+/// `model`'s that it was trained to accept.
+pub fn rate_tolerance(model: &DekfModel) -> f64 {
+    model
+        .meta
+        .training
+        .get(RATE_TOLERANCE_KEY)
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or(DEFAULT_RATE_TOLERANCE)
+}
+
 /// Checks that `model` can run on `session`.
 pub fn check_compatible(model: &DekfModel, session: &SessionData) -> Result<()> {
     ChannelPicker::new(&model.meta.channels, &session.tactile).with_context(|| {
         format!("{}: the model's channels do not match the session's tactile sensors", session.path.display())
     })?;
     let expected = model.meta.tactile_rate_hz;
-    if (session.rate_hz - expected).abs() > 0.05 * expected {
+    if (session.rate_hz - expected).abs() > rate_tolerance(model) * expected {
         bail!(
             "{}: tactile rate {:.1} Hz, but the model was trained at {:.1} Hz (decimation {})",
             session.path.display(),

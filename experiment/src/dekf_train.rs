@@ -13,7 +13,7 @@ use slidetrack_estimators::derivative::DerivativeFilterConfig;
 
 use crate::dataset::{ChannelSet, SessionData, TruthSource};
 use crate::dekf_eval::score_session;
-use crate::dekf_run::{Inputs, inputs, normalisation, sequence};
+use crate::dekf_run::{DEFAULT_RATE_TOLERANCE, Inputs, RATE_TOLERANCE_KEY, inputs, normalisation, sequence};
 
 /// Default `--position-shift` (cm): without it the position drifts on long
 /// sessions (held-out box sessions: 35 % of the zero-motion baseline's RMSE
@@ -49,6 +49,11 @@ pub struct TrainSpec {
     pub threads: usize,
     /// The truth trained against.
     pub truth: TruthSource,
+    /// Largest relative difference of a session's tactile rate from the
+    /// model's (the first session's), here and when the model runs
+    /// ([`crate::dekf_run::rate_tolerance`]); 0.05 unless a dataset's rates
+    /// vary more (imported recordings on a mean-rate clock).
+    pub rate_tolerance: f64,
 }
 
 impl Default for TrainSpec {
@@ -67,6 +72,7 @@ impl Default for TrainSpec {
             select_epoch: true,
             threads: 0,
             truth: TruthSource::GroundTruth,
+            rate_tolerance: DEFAULT_RATE_TOLERANCE,
         }
     }
 }
@@ -105,17 +111,19 @@ pub struct Trained {
     pub seconds: f64,
 }
 
-/// The tactile rate shared by `sessions` (Hz); fails when they differ by more than 5 %.
-fn common_tactile_rate(sessions: &[SessionData]) -> Result<f64> {
+/// The tactile rate shared by `sessions` (Hz), the first one's; fails when
+/// one differs from it by more than `tolerance` (relative).
+fn common_tactile_rate(sessions: &[SessionData], tolerance: f64) -> Result<f64> {
     let Some(first) = sessions.first() else { bail!("no sessions to train on") };
     for s in sessions {
-        if (s.rate_hz - first.rate_hz).abs() > 0.05 * first.rate_hz {
+        if (s.rate_hz - first.rate_hz).abs() > tolerance * first.rate_hz {
             bail!(
-                "{}: tactile rate {:.1} Hz differs from {:.1} Hz of {}",
+                "{}: tactile rate {:.1} Hz differs from {:.1} Hz of {} by more than {:.0} % (--rate-tolerance)",
                 s.path.display(),
                 s.rate_hz,
                 first.rate_hz,
-                first.path.display()
+                first.path.display(),
+                tolerance * 100.0
             );
         }
     }
@@ -129,7 +137,7 @@ fn new_model(
     cfg: &TrainConfig,
     sessions: &[SessionData],
 ) -> Result<(DekfModel, Vec<Sequence>)> {
-    let tactile_rate = common_tactile_rate(sessions)?;
+    let tactile_rate = common_tactile_rate(sessions, spec.rate_tolerance)?;
     let decimation = ((tactile_rate / spec.rate_hz).round() as usize).max(1);
     let channels = spec.channels.clone();
     let filter = DerivativeFilterConfig::default();
@@ -138,7 +146,7 @@ fn new_model(
         .map(|s| inputs(s, &channels, spec.measurement, filter, decimation))
         .collect::<Result<_>>()?;
     let files: Vec<String> = sessions.iter().map(|s| s.path.display().to_string()).collect();
-    let meta = ModelMeta {
+    let mut meta = ModelMeta {
         dt_s: decimation as f64 / tactile_rate,
         decimation,
         tactile_rate_hz: tactile_rate,
@@ -156,6 +164,11 @@ fn new_model(
         }),
         software_version: env!("CARGO_PKG_VERSION").into(),
     };
+    if spec.rate_tolerance != DEFAULT_RATE_TOLERANCE
+        && let Some(training) = meta.training.as_object_mut()
+    {
+        training.insert(RATE_TOLERANCE_KEY.into(), json!(spec.rate_tolerance));
+    }
     let mut model = DekfModel::new(meta, &mut rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed));
     let (mean, std) = normalisation(&prepared.iter().collect::<Vec<_>>(), channels.len());
     model.set_input_normalisation(&mean, &std);
@@ -175,6 +188,9 @@ pub fn fit_sessions(
     }
     if spec.schedule.is_empty() {
         bail!("the training schedule has no stages");
+    }
+    if !(spec.rate_tolerance.is_finite() && spec.rate_tolerance >= 0.0) {
+        bail!("the rate tolerance must be a non-negative fraction, got {}", spec.rate_tolerance);
     }
     let cfg = TrainConfig {
         schedule: spec.schedule.clone(),

@@ -91,6 +91,12 @@ pub struct TrainArgs {
     /// Print a JSON summary instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Largest relative difference of a session's tactile rate from the
+    /// first session's (and, recorded in the model, from the sessions it
+    /// runs on); imported recordings whose tactile refresh varies need more
+    /// than the default.
+    #[arg(long, default_value_t = 0.05)]
+    pub rate_tolerance: f64,
 }
 
 /// Arguments of `replay`.

@@ -5,6 +5,7 @@
 mod camera;
 mod dekf;
 mod experiment;
+mod import;
 mod session;
 mod vision;
 
@@ -13,6 +14,7 @@ use clap::{Parser, Subcommand};
 pub use camera::*;
 pub use dekf::*;
 pub use experiment::*;
+pub use import::*;
 pub use session::*;
 pub use vision::*;
 
@@ -73,6 +75,8 @@ pub enum Command {
     Study(StudyArgs),
     /// Turn captured tactile traffic (candump log, raw serial bytes) into a session.
     Decode(DecodeArgs),
+    /// Turn recordings made elsewhere (the xela-imanlab CSVs) into sessions.
+    Import(ImportArgs),
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 
 use anyhow::Result;
 use serde_json::json;
-use slidetrack_session::{ReadOptions, SessionInfo};
+use slidetrack_session::{ChannelMessage, ReadOptions, SessionInfo, TactileRaw, TaxelLayout};
 
 use crate::cli::InfoArgs;
 
@@ -91,6 +91,22 @@ fn to_text(info: &SessionInfo) -> String {
     for c in &info.channels {
         let rate = c.mean_rate_hz.map_or("-".to_string(), |r| format!("{r:.2}"));
         let _ = writeln!(s, "  {:<22} {:<30} {:>9} {:>10}", c.topic, c.schema_name, c.message_count, rate);
+    }
+    if let Some(layout) = info
+        .channel(TactileRaw::TOPIC)
+        .and_then(|c| TaxelLayout::from_channel_metadata(&c.metadata))
+        .and_then(Result::ok)
+    {
+        let sensors: Vec<String> =
+            layout.sensors.iter().map(|l| format!("{} {} {}x{}", l.name, l.model, l.rows, l.cols)).collect();
+        let taxels: u32 = layout.sensors.iter().map(|l| l.rows * l.cols).sum();
+        let _ = writeln!(
+            s,
+            "tactile:   {} sensor(s) ({}), {taxels} taxels, {} values per scan",
+            sensors.len(),
+            sensors.join(", "),
+            3 * taxels
+        );
     }
     let other: Vec<_> = info.metadata.keys().filter(|k| !k.starts_with("slidetrack")).collect();
     if !other.is_empty() {

@@ -11,6 +11,7 @@ mod demo;
 mod devices;
 pub mod eval;
 mod export;
+mod import;
 mod info;
 mod label;
 mod objects;
@@ -55,6 +56,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         #[cfg(not(all(feature = "devices", target_os = "linux")))]
         Command::Devices(_) => Err(without_devices("devices")),
         Command::Decode(args) => decode::run(&args, quiet),
+        Command::Import(args) => import::run(&args, quiet),
     }
 }
 

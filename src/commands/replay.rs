@@ -3,7 +3,9 @@
 //! the model's input and estimates.
 
 use anyhow::{Context, Result, bail};
-use slidetrack_experiment::dekf_run::{estimate_message, estimate_metadata, load_model};
+use slidetrack_experiment::dataset::load;
+use slidetrack_experiment::dekf_eval::has_protocol;
+use slidetrack_experiment::dekf_run::{estimate_message, estimate_metadata, load_model, run};
 use slidetrack_experiment::plot::dekf::plot_replay;
 use slidetrack_experiment::replay::replay_dekf;
 use slidetrack_session::{DekfEstimate, NewChannel, ReadOptions, TactileDerivative, rewrite_session};
@@ -18,7 +20,13 @@ pub fn run_cmd(args: &ReplayArgs) -> Result<()> {
     if std::fs::canonicalize(&args.file).ok() == std::fs::canonicalize(&args.out).ok() {
         bail!("--out must differ from the input file");
     }
-    let outputs = replay_dekf(&args.file, &model)?;
+    // Sessions recorded without the protocol (imports) have nothing to
+    // replay it on: the model runs over their recorded zeroed scans.
+    let outputs = if has_protocol(&args.file)? {
+        replay_dekf(&args.file, &model)?
+    } else {
+        run(&model, &load(&args.file, None)?)?
+    };
     let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
     let [derivative_meta, estimate_meta] = estimate_metadata(&model, &model_name)?;
     let mut derivative = NewChannel::of::<TactileDerivative>(derivative_meta);

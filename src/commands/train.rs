@@ -24,6 +24,7 @@ pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
         select_epoch: !args.no_select,
         threads: args.threads,
         truth: args.truth.into(),
+        rate_tolerance: args.rate_tolerance,
     })
 }
 

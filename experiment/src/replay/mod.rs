@@ -321,7 +321,7 @@ pub fn replay_dekf(path: &Path, model: &DekfModel) -> Result<Vec<(TimeNs, DekfOu
 /// Checks that `model` was trained at the session's tactile rate.
 pub fn check_rate(session: &ReplaySession, model: &DekfModel) -> Result<()> {
     let (rate, expected) = (session.tactile.rate_hz, model.meta.tactile_rate_hz);
-    if (rate - expected).abs() > 0.05 * expected {
+    if (rate - expected).abs() > crate::dekf_run::rate_tolerance(model) * expected {
         bail!(
             "{}: tactile rate {rate:.1} Hz, but the model was trained at {expected:.1} Hz (decimation {})",
             session.path.display(),

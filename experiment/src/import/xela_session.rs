@@ -1,0 +1,541 @@
+//! xela-imanlab sequences ([`super::xela_csv`]) written as sessions: one
+//! `.mcap` per sequence, every value of every CSV file on a channel or in
+//! the metadata (see `docs/real-data.md`, "Imported, labelled, trained").
+//!
+//! Times: the files hold no per-row time, so row `i` of every file is logged
+//! at `i / frequency_hz` (s), the time [`super::xela_csv::XelaFrame::t_s`]
+//! gives it; rows a file has beyond the others (the extra tactile row) follow
+//! at the same spacing.
+//!
+//! | topic | schema | per row |
+//! |---|---|---|
+//! | `/tactile/raw` | `slidetrack.TactileRaw` | both patches, 2 x 16 taxels x 3 counts |
+//! | `/tactile/tare` | `slidetrack.TactileTare` | once: the mean of the first [`BASELINE_ROWS`] rows |
+//! | `/tactile/zeroed` | `slidetrack.TactileZeroed` | rows whose counts changed (the ~10 Hz refresh) |
+//! | `/aruco/detections` | `slidetrack.ArucoDetection` | marker 1 (missed when not seen) |
+//! | `/markers/marker1/pose`, `/markers/marker2/pose` | `foxglove.PoseInFrame` | when that marker was seen |
+//! | `/markers/tf` | `foxglove.FrameTransform` | `camera` -> `marker1` / `marker2`, when seen |
+//! | `/gripper/state` | `slidetrack.GripperState` | opening width |
+//! | `/robot/state` | `slidetrack.RobotState` | joints, velocities, end-effector pose |
+//! | `/robot/ee_pose` | `foxglove.PoseInFrame` | end-effector pose in `base` |
+//!
+//! The session writes to a hidden temporary file in the output folder and
+//! is renamed to `<sequence>.mcap` only when complete, so a failed import
+//! leaves no file that looks finished.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+use slidetrack_core::{FingerReading, PerFinger, SensorLayout, TactileInfo, TactileLayout, TimeNs};
+use slidetrack_session::vision_pose::XyzM;
+use slidetrack_session::{
+    ArucoDetection, ChannelHandle, ChannelMessage, FoxgloveTime, FrameTransform, PoseInFrame, Quaternion,
+    Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TactileRaw, TactileTare, TactileZeroed,
+    TaxelLayout, Untyped, VisionPose, sensor_taxels,
+};
+
+use super::xela_csv::{MarkerPose, PatchCounts, RobotState, SENSORS, TAXELS, XelaSequence};
+
+/// `rig` of imported sessions.
+pub const RIG_NAME: &str = "xela-imanlab";
+/// Metadata record holding every value of `meta_data.csv` and the import's facts.
+pub const SOURCE_METADATA: &str = "xela_imanlab";
+/// Names of the two patches in the layout (`xela_sensor1.csv`, `xela_sensor2.csv`).
+pub const SENSOR_NAMES: [&str; SENSORS] = ["sensor1", "sensor2"];
+/// The patches' model (XELA uSkin 4x4 patch).
+pub const SENSOR_MODEL: &str = "uSPa44";
+/// Rows averaged into the tactile baseline (before contact in every sequence).
+pub const BASELINE_ROWS: usize = 10;
+/// The sliding direction in the wrist camera's optical frame: the principal
+/// direction of marker 1's displacements pooled over the 53 sequences
+/// (`docs/real-data.md`, "What sliding looks like"); normalised on use.
+pub const SLIDING_AXIS_IN_CAMERA: [f64; 3] = [-0.08, -0.60, 0.80];
+/// The wrist camera's optical frame (x right, y down, z forward).
+pub const CAMERA_FRAME: &str = "camera";
+/// The robot's base frame of the end-effector pose.
+pub const BASE_FRAME: &str = "base";
+/// Topics of the markers' poses.
+pub const MARKER_POSE_TOPICS: [&str; 2] = ["/markers/marker1/pose", "/markers/marker2/pose"];
+/// Topic of the markers' frame transforms.
+pub const MARKER_TF_TOPIC: &str = "/markers/tf";
+/// Topic of the gripper state.
+pub const GRIPPER_TOPIC: &str = "/gripper/state";
+/// Topic of the robot state.
+pub const ROBOT_TOPIC: &str = "/robot/state";
+/// Topic of the end-effector pose.
+pub const EE_POSE_TOPIC: &str = "/robot/ee_pose";
+
+/// `/gripper/state`: the Panda gripper, one row of `robot_state.csv`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GripperState {
+    /// `position_panda_finger`: the opening width between the fingers (m;
+    /// most likely, see `docs/real-data.md`).
+    pub opening_width_m: f64,
+}
+
+/// `/robot/state`: the Franka Panda, one row of `robot_state.csv`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotStateMessage {
+    /// `position_panda_joint1..7` (rad).
+    pub joint_position_rad: [f64; 7],
+    /// `velocity_panda_joint1..7` (rad/s).
+    pub joint_velocity_rad_s: [f64; 7],
+    /// `ee_state_position_{x,y,z}`: end-effector position in the base frame (m).
+    pub ee_position_in_base_m: [f64; 3],
+    /// `ee_state_orientation_{x,y,z,w}`: base-from-end-effector rotation.
+    pub ee_orientation_in_base: Quaternion,
+}
+
+impl From<&RobotState> for RobotStateMessage {
+    fn from(r: &RobotState) -> RobotStateMessage {
+        let [x, y, z, w] = r.ee_orientation_in_base_xyzw;
+        RobotStateMessage {
+            joint_position_rad: r.joint_position_rad,
+            joint_velocity_rad_s: r.joint_velocity_rad_s,
+            ee_position_in_base_m: r.ee_position_in_base_m,
+            ee_orientation_in_base: Quaternion { x, y, z, w },
+        }
+    }
+}
+
+fn number_array(n: usize, description: &str) -> Value {
+    json!({"type": "array", "items": {"type": "number"}, "minItems": n, "maxItems": n, "description": description})
+}
+
+fn closed_schema(title: &str, properties: Value) -> Value {
+    let required: Vec<&String> = properties.as_object().map(|m| m.keys().collect()).unwrap_or_default();
+    json!({
+        "$schema": slidetrack_session::JSON_SCHEMA_DIALECT,
+        "title": title,
+        "type": "object",
+        "properties": properties,
+        "required": required,
+        "additionalProperties": false,
+    })
+}
+
+/// The JSON Schema of `/gripper/state`.
+pub fn gripper_schema() -> Value {
+    closed_schema(
+        "slidetrack.GripperState",
+        json!({"opening_width_m": {"type": "number", "description": "opening width between the fingers (m)"}}),
+    )
+}
+
+/// The JSON Schema of `/robot/state`.
+pub fn robot_schema() -> Value {
+    let q = |d: &str| -> Value { json!({"type": "number", "description": d}) };
+    closed_schema(
+        "slidetrack.RobotState",
+        json!({
+            "joint_position_rad": number_array(7, "joint angles 1..7 (rad)"),
+            "joint_velocity_rad_s": number_array(7, "joint velocities 1..7 (rad/s)"),
+            "ee_position_in_base_m": number_array(3, "end-effector position in the base frame (m)"),
+            "ee_orientation_in_base": {
+                "type": "object",
+                "description": "base-from-end-effector rotation, quaternion",
+                "properties": {"x": q("vector part, x"), "y": q("vector part, y"), "z": q("vector part, z"), "w": q("scalar part")},
+                "required": ["x", "y", "z", "w"],
+                "additionalProperties": false,
+            },
+        }),
+    )
+}
+
+/// The tactile source of imported sessions: two 4x4 uSkin patches, taxel
+/// `i` (CSV `txl{i+1}`) at row `i / 4`, column `i % 4` as the dataset's
+/// authors lay it out. Which finger carries which patch, and how a patch
+/// is oriented on it, are not documented: `finger` says so. The three
+/// finger readings of the thesis's hand map the two patches as thumb =
+/// sensor 1 and index = middle = sensor 2 (the pair opposite the thumb),
+/// each the mean of its patch.
+pub fn tactile_info(rate_hz: f64) -> TactileInfo {
+    let sensor = |i: usize| {
+        let finger = format!("unknown (xela_sensor{}.csv)", i + 1);
+        SensorLayout::grid(SENSOR_NAMES[i], SENSOR_MODEL, &finger, 4, 4)
+    };
+    TactileInfo {
+        device: format!("{RIG_NAME} CSV"),
+        rate_hz,
+        layout: TactileLayout { sensors: vec![sensor(0), sensor(1)] },
+        fingers: PerFinger {
+            thumb: FingerReading::mean(SENSOR_NAMES[0]),
+            index: FingerReading::mean(SENSOR_NAMES[1]),
+            middle: FingerReading::mean(SENSOR_NAMES[1]),
+        },
+    }
+}
+
+/// The `rig_config` of imported sessions: no hand-eye transform is known, so
+/// the "hand" frame is the wrist camera's own (identity placement) and the
+/// sliding axis is [`SLIDING_AXIS_IN_CAMERA`]; `label --axis config` uses it.
+pub fn rig_config_toml() -> String {
+    let [x, y, z] = SLIDING_AXIS_IN_CAMERA;
+    format!(
+        "# {RIG_NAME} import: the wrist camera's optical frame stands for the hand frame\n\
+         # (no hand-eye transform is known); the sliding axis is marker 1's principal\n\
+         # direction pooled over the dataset (docs/real-data.md).\n\
+         [camera]\n\
+         placement = {{ kind = \"pose\", translation_m = [0.0, 0.0, 0.0], quaternion_xyzw = [0.0, 0.0, 0.0, 1.0] }}\n\n\
+         [geometry]\n\
+         sliding_axis_in_hand = [{x:?}, {y:?}, {z:?}]\n"
+    )
+}
+
+/// How to import.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// Replace an existing session file.
+    pub overwrite: bool,
+}
+
+/// What an import wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImportReport {
+    /// The session file.
+    pub path: PathBuf,
+    /// Rows of the longest file (messages on `/tactile/raw` when it is a tactile file).
+    pub rows: usize,
+    /// Rows every file has.
+    pub shared_rows: usize,
+    /// Rows whose tactile counts changed (messages on `/tactile/zeroed`).
+    pub fresh_scans: usize,
+    /// Rows on which marker 1 and marker 2 were seen.
+    pub markers_seen: [usize; 2],
+    /// Duration (s).
+    pub duration_s: f64,
+}
+
+/// The session file of `seq` in `out_dir`.
+pub fn session_path(out_dir: &Path, seq: &XelaSequence) -> PathBuf {
+    out_dir.join(format!("{}.mcap", seq.name))
+}
+
+/// The rows of one sequence, each file's row `i` (shared rows, then tails).
+struct Rows<'a> {
+    seq: &'a XelaSequence,
+}
+
+impl<'a> Rows<'a> {
+    fn tactile(&self, i: usize) -> Result<Option<[&'a PatchCounts; SENSORS]>> {
+        let n = self.seq.frames.len();
+        if let Some(f) = self.seq.frames.get(i) {
+            return Ok(Some([&f.tactile[0], &f.tactile[1]]));
+        }
+        match (self.seq.tail.tactile[0].get(i - n), self.seq.tail.tactile[1].get(i - n)) {
+            (Some(a), Some(b)) => Ok(Some([a, b])),
+            (None, None) => Ok(None),
+            _ => bail!(
+                "{}: xela_sensor1.csv and xela_sensor2.csv have different row counts ({} and {})",
+                self.seq.name,
+                n + self.seq.tail.tactile[0].len(),
+                n + self.seq.tail.tactile[1].len()
+            ),
+        }
+    }
+
+    fn markers(&self, i: usize) -> Option<&'a [Option<MarkerPose>; 2]> {
+        let n = self.seq.frames.len();
+        self.seq.frames.get(i).map(|f| &f.markers).or_else(|| self.seq.tail.markers.get(i - n))
+    }
+
+    fn robot(&self, i: usize) -> Option<&'a RobotState> {
+        let n = self.seq.frames.len();
+        self.seq.frames.get(i).map(|f| &f.robot).or_else(|| self.seq.tail.robot.get(i - n))
+    }
+
+    fn count(&self) -> usize {
+        let t = &self.seq.tail;
+        let extra = [t.tactile[0].len(), t.tactile[1].len(), t.markers.len(), t.robot.len()];
+        self.seq.frames.len() + extra.into_iter().max().unwrap_or(0)
+    }
+}
+
+/// Channels of an imported session.
+struct Channels {
+    raw: ChannelHandle<TactileRaw>,
+    tare: ChannelHandle<TactileTare>,
+    zeroed: ChannelHandle<TactileZeroed>,
+    aruco: ChannelHandle<ArucoDetection>,
+    marker_pose: [ChannelHandle<Untyped>; 2],
+    marker_tf: ChannelHandle<Untyped>,
+    gripper: ChannelHandle<Untyped>,
+    robot: ChannelHandle<Untyped>,
+    ee_pose: ChannelHandle<Untyped>,
+}
+
+fn json_channel(
+    rec: &Recorder,
+    topic: &str,
+    schema: &Value,
+    description: &str,
+) -> Result<ChannelHandle<Untyped>> {
+    let name = schema["title"].as_str().unwrap_or_default().to_string();
+    let meta = BTreeMap::from([("description".to_string(), description.to_string())]);
+    Ok(rec.register_channel(topic, &name, "jsonschema", &serde_json::to_vec(schema)?, "json", meta)?)
+}
+
+impl Channels {
+    fn register(rec: &Recorder, info: &TactileInfo) -> Result<Channels> {
+        let pose_schema = VisionPose::json_schema();
+        let tf_schema = slidetrack_session::vision_pose::MaskUkfTransform::json_schema();
+        let marker = |k: usize| {
+            let what = format!("marker {} of marker.csv, camera_from_marker, only when seen", k + 1);
+            json_channel(rec, MARKER_POSE_TOPICS[k], &pose_schema, &what)
+        };
+        Ok(Channels {
+            raw: rec.register::<TactileRaw>(TaxelLayout::new(info).channel_metadata())?,
+            tare: rec.register::<TactileTare>(BTreeMap::new())?,
+            zeroed: rec.register::<TactileZeroed>(BTreeMap::new())?,
+            aruco: rec.register::<ArucoDetection>(BTreeMap::new())?,
+            marker_pose: [marker(0)?, marker(1)?],
+            marker_tf: json_channel(
+                rec,
+                MARKER_TF_TOPIC,
+                &tf_schema,
+                "camera -> marker1 / marker2, when seen",
+            )?,
+            gripper: json_channel(rec, GRIPPER_TOPIC, &gripper_schema(), "position_panda_finger")?,
+            robot: json_channel(rec, ROBOT_TOPIC, &robot_schema(), "robot_state.csv")?,
+            ee_pose: json_channel(rec, EE_POSE_TOPIC, &pose_schema, "ee_state_* in the base frame")?,
+        })
+    }
+}
+
+fn log_value(
+    rec: &Recorder,
+    ch: &ChannelHandle<Untyped>,
+    t: TimeNs,
+    seq: u32,
+    v: &impl Serialize,
+) -> Result<()> {
+    Ok(rec.log(ch, t, t, seq, serde_json::to_vec(v)?)?)
+}
+
+fn scan_of_patches(patches: [&PatchCounts; SENSORS]) -> Vec<[u16; 3]> {
+    patches.iter().flat_map(|p| p.iter().copied()).collect()
+}
+
+/// The mean of the first [`BASELINE_ROWS`] tactile rows, per taxel (counts).
+fn baseline(rows: &Rows<'_>) -> Result<Vec<[f64; 3]>> {
+    let mut sum = vec![[0.0; 3]; SENSORS * TAXELS];
+    let mut n = 0.0_f64;
+    for i in 0..BASELINE_ROWS {
+        let Some(patches) = rows.tactile(i)? else { break };
+        for (s, v) in sum.iter_mut().zip(scan_of_patches(patches)) {
+            for a in 0..3 {
+                s[a] += f64::from(v[a]);
+            }
+        }
+        n += 1.0;
+    }
+    Ok(sum.into_iter().map(|s| s.map(|v| v / n.max(1.0))).collect())
+}
+
+fn marker_detection(pose: Option<&MarkerPose>, axis: &Vector3<f64>) -> ArucoDetection {
+    let Some(p) = pose else { return ArucoDetection::missed() };
+    let [x, y, z, w] = p.orientation_in_camera_xyzw;
+    ArucoDetection {
+        detected: true,
+        marker_id: None,
+        corners_px: None,
+        position_in_camera_m: Some(p.position_in_camera_m),
+        orientation_in_camera: Some(Quaternion { x, y, z, w }),
+        position_on_axis_m: Some(axis.dot(&Vector3::from(p.position_in_camera_m))),
+        reprojection_error_px: None,
+    }
+}
+
+fn pose_of(t: TimeNs, frame: &str, position: [f64; 3], xyzw: [f64; 4]) -> PoseInFrame {
+    let [x, y, z, w] = xyzw;
+    let mut pose =
+        PoseInFrame { timestamp: FoxgloveTime::from(t), frame_id: frame.into(), ..PoseInFrame::default() };
+    pose.pose.position = XyzM { x: position[0], y: position[1], z: position[2] };
+    pose.pose.orientation = Quaternion { x, y, z, w };
+    pose
+}
+
+fn transform_of(t: TimeNs, child: &str, p: &MarkerPose) -> FrameTransform {
+    let [x, y, z, w] = p.orientation_in_camera_xyzw;
+    let [px, py, pz] = p.position_in_camera_m;
+    FrameTransform {
+        timestamp: FoxgloveTime::from(t),
+        parent_frame_id: CAMERA_FRAME.into(),
+        child_frame_id: child.into(),
+        translation: XyzM { x: px, y: py, z: pz },
+        rotation: Quaternion { x, y, z, w },
+    }
+}
+
+/// Writes the messages of every row; returns (fresh scans, markers seen).
+fn write_rows(
+    rec: &Recorder,
+    ch: &Channels,
+    rows: &Rows<'_>,
+    info: &TactileInfo,
+) -> Result<(usize, [usize; 2])> {
+    let frequency_hz = rows.seq.meta.frequency_hz;
+    let layout = &info.layout;
+    let base = baseline(rows)?;
+    let axis = Vector3::from(SLIDING_AXIS_IN_CAMERA).normalize();
+    let samples = u32::try_from(BASELINE_ROWS.min(rows.count())).unwrap_or(u32::MAX);
+    rec.log_json(
+        &ch.tare,
+        TimeNs::ZERO,
+        TimeNs::ZERO,
+        0,
+        &TactileTare { samples, baseline: sensor_taxels(layout, &base) },
+    )?;
+    let (mut fresh, mut seen) = (0, [0, 0]);
+    let mut previous: Option<Vec<[u16; 3]>> = None;
+    for i in 0..rows.count() {
+        let t = TimeNs::from_secs_f64(i as f64 / frequency_hz);
+        let seq = u32::try_from(i).unwrap_or(u32::MAX);
+        if let Some(patches) = rows.tactile(i)? {
+            let scan = scan_of_patches(patches);
+            let raw = TactileRaw { sequence: i as u64, sensors: sensor_taxels(layout, &scan) };
+            rec.log_json(&ch.raw, t, t, seq, &raw)?;
+            if previous.as_ref() != Some(&scan) {
+                let zeroed: Vec<[f64; 3]> = scan
+                    .iter()
+                    .zip(&base)
+                    .map(|(v, b)| std::array::from_fn(|a| f64::from(v[a]) - b[a]))
+                    .collect();
+                rec.log_json(
+                    &ch.zeroed,
+                    t,
+                    t,
+                    seq,
+                    &TactileZeroed { sensors: sensor_taxels(layout, &zeroed) },
+                )?;
+                fresh += 1;
+            }
+            previous = Some(scan);
+        }
+        if let Some(markers) = rows.markers(i) {
+            rec.log_json(&ch.aruco, t, t, seq, &marker_detection(markers[0].as_ref(), &axis))?;
+            for (k, m) in markers.iter().enumerate() {
+                let Some(m) = m else { continue };
+                seen[k] += 1;
+                let pose = pose_of(t, CAMERA_FRAME, m.position_in_camera_m, m.orientation_in_camera_xyzw);
+                log_value(rec, &ch.marker_pose[k], t, seq, &pose)?;
+                log_value(rec, &ch.marker_tf, t, seq, &transform_of(t, &format!("marker{}", k + 1), m))?;
+            }
+        }
+        if let Some(r) = rows.robot(i) {
+            log_value(rec, &ch.gripper, t, seq, &GripperState { opening_width_m: r.finger_position_m })?;
+            log_value(rec, &ch.robot, t, seq, &RobotStateMessage::from(r))?;
+            let ee = pose_of(t, BASE_FRAME, r.ee_position_in_base_m, r.ee_orientation_in_base_xyzw);
+            log_value(rec, &ch.ee_pose, t, seq, &ee)?;
+        }
+    }
+    Ok((fresh, seen))
+}
+
+/// The `slidetrack` metadata record of `seq`.
+fn session_metadata(seq: &XelaSequence, info: &TactileInfo) -> BTreeMap<String, String> {
+    let start = std::time::UNIX_EPOCH + std::time::Duration::from_secs_f64(seq.meta.start_time_s.max(0.0));
+    let metadata = SessionMetadata {
+        software_version: env!("CARGO_PKG_VERSION").into(),
+        rig: RIG_NAME.into(),
+        rig_config: rig_config_toml(),
+        object: seq.meta.object_name.clone(),
+        object_config: String::new(),
+        trial: seq.name.clone(),
+        seed: 0,
+        started_at: humantime::format_rfc3339_seconds(start).to_string(),
+    };
+    let mut map = metadata.to_map();
+    map.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(info).to_json());
+    map
+}
+
+/// The [`SOURCE_METADATA`] record: every `meta_data.csv` value as written
+/// (`meta.<column>`), the npy path, row counts and the timing rule.
+fn source_metadata(seq: &XelaSequence, source: &Path, rows: usize) -> BTreeMap<String, String> {
+    let mut map: BTreeMap<String, String> =
+        seq.meta.fields.iter().map(|(k, v)| (format!("meta.{k}"), v.clone())).collect();
+    let t = &seq.tail;
+    let file_rows = |extra: usize| (seq.frames.len() + extra).to_string();
+    let entries = [
+        ("source", source.display().to_string()),
+        ("sequence", seq.name.clone()),
+        ("dropped", seq.meta.dropped.to_string()),
+        ("meta_data_npy_path", seq.meta_npy_path.clone().unwrap_or_default()),
+        ("meta_data_npy_present", seq.meta_npy_path.is_some().to_string()),
+        ("rows", rows.to_string()),
+        ("shared_rows", seq.frames.len().to_string()),
+        ("rows.xela_sensor1", file_rows(t.tactile[0].len())),
+        ("rows.xela_sensor2", file_rows(t.tactile[1].len())),
+        ("rows.robot_state", file_rows(t.robot.len())),
+        ("rows.marker", file_rows(t.markers.len())),
+        ("timing", "row i of every file at i / frequency_hz s (the files have no per-row time)".into()),
+        ("baseline", format!("/tactile/tare: mean of the first {BASELINE_ROWS} rows")),
+        ("zeroed", "/tactile/zeroed only on rows whose counts changed (the ~10 Hz tactile refresh)".into()),
+        (
+            "marker_not_seen",
+            "all seven values 10.0 in marker.csv: no pose message, a missed detection".into(),
+        ),
+        ("fingers", "unknown; thumb = sensor1, index = middle = sensor2 (patch means)".into()),
+        ("sliding_axis_in_camera", format!("{SLIDING_AXIS_IN_CAMERA:?}")),
+    ];
+    map.extend(entries.into_iter().map(|(k, v)| (k.to_string(), v)));
+    map
+}
+
+/// Writes `seq` (read from `source`) as `<out_dir>/<name>.mcap`.
+pub fn import_sequence(
+    seq: &XelaSequence,
+    source: &Path,
+    out_dir: &Path,
+    options: ImportOptions,
+) -> Result<ImportReport> {
+    let path = session_path(out_dir, seq);
+    if path.exists() && !options.overwrite {
+        bail!("{} already exists; pass --overwrite to replace it", path.display());
+    }
+    let rows = Rows { seq };
+    let count = rows.count();
+    let info = tactile_info(seq.meta.frequency_hz);
+    let tmp = out_dir.join(format!(".{}.mcap.partial-{}", seq.name, std::process::id()));
+    let written = write_session(seq, source, &rows, &info, &tmp);
+    let (fresh_scans, markers_seen) = match written {
+        Ok(counts) => counts,
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
+    };
+    std::fs::rename(&tmp, &path).with_context(|| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("cannot write {}", path.display())
+    })?;
+    Ok(ImportReport {
+        path,
+        rows: count,
+        shared_rows: seq.frames.len(),
+        fresh_scans,
+        markers_seen,
+        duration_s: count.saturating_sub(1) as f64 / seq.meta.frequency_hz,
+    })
+}
+
+fn write_session(
+    seq: &XelaSequence,
+    source: &Path,
+    rows: &Rows<'_>,
+    info: &TactileInfo,
+    tmp: &Path,
+) -> Result<(usize, [usize; 2])> {
+    let options = RecorderOptions { overwrite: true, ..RecorderOptions::default() };
+    let rec = Recorder::create_with_options(tmp, session_metadata(seq, info), options)?;
+    let channels = Channels::register(&rec, info)?;
+    let counts = write_rows(&rec, &channels, rows, info)?;
+    rec.metadata(SOURCE_METADATA, source_metadata(seq, source, rows.count()))?;
+    rec.finish_with_outcome(true, None).with_context(|| format!("cannot finish {}", tmp.display()))?;
+    Ok(counts)
+}

@@ -1,0 +1,40 @@
+//! `slidetrack import`: recordings made elsewhere turned into sessions.
+
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand};
+
+/// `slidetrack import`.
+#[derive(Debug, Args)]
+pub struct ImportArgs {
+    /// The kind of recording.
+    #[command(subcommand)]
+    pub what: ImportCommand,
+}
+
+/// The importers.
+#[derive(Debug, Subcommand)]
+pub enum ImportCommand {
+    /// The xela-imanlab CSV recordings (two uSkin 4x4 patches on a Franka
+    /// Panda, two ArUco markers seen by a wrist camera): one session per
+    /// sequence folder, named after it.
+    XelaCsv(XelaCsvArgs),
+}
+
+/// `slidetrack import xela-csv`.
+#[derive(Debug, Args)]
+pub struct XelaCsvArgs {
+    /// Sequence folders (`data_sample_<date>`, holding `xela_sensor1.csv`)
+    /// or folders of them (such as `train/`).
+    #[arg(required = true, value_name = "DIR")]
+    pub dirs: Vec<PathBuf>,
+    /// Folder to write the sessions to (created if missing).
+    #[arg(long, value_name = "OUTDIR")]
+    pub out: PathBuf,
+    /// Replace sessions that exist already.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// One JSON object per imported sequence instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
