@@ -8,7 +8,7 @@ Every row of every CSV file is compared with the message of the same index
 (the MCAP `sequence` field is the row index): tactile counts on /tactile/raw,
 marker 1 on /aruco/detections (a missed detection where the CSV has the 10.0
 sentinel), both markers on /markers/markerN/pose (present exactly where the
-CSV has a pose), the robot state on /robot/state and /gripper/state; every
+CSV has a pose), the robot state on /robot/state and /hand/state; every
 meta_data.csv column in the `xela_imanlab` metadata record. Prints a JSON
 summary; exits non-zero on the first mismatch.
 """
@@ -88,13 +88,13 @@ def main(session, folder):
 
     header, data = rows(os.path.join(folder, "robot_state.csv"))
     robot = by_sequence(messages, "/robot/state")
-    gripper = by_sequence(messages, "/gripper/state")
+    gripper = by_sequence(messages, "/hand/state")
     assert len(robot) == len(data) == len(gripper)
     for i, r in enumerate(data):
         v = [float(x) for x in r]
         m = robot[i][1]
         q = m["ee_orientation_in_base"]
-        got = (m["joint_position_rad"] + [gripper[i][1]["opening_width_m"]] + m["joint_velocity_rad_s"]
+        got = (m["joint_position_rad"] + [gripper[i][1]["opening"]] + m["joint_velocity_rad_s"]
                + m["ee_position_in_base_m"] + [q[a] for a in "xyzw"])
         assert got == v, f"robot row {i}: {got} != {v}"
         compared += 22

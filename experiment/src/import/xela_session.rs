@@ -15,7 +15,7 @@
 //! | `/aruco/detections` | `slidetrack.ArucoDetection` | marker 1 (missed when not seen) |
 //! | `/markers/marker1/pose`, `/markers/marker2/pose` | `foxglove.PoseInFrame` | when that marker was seen |
 //! | `/markers/tf` | `foxglove.FrameTransform` | `camera` -> `marker1` / `marker2`, when seen |
-//! | `/gripper/state` | `slidetrack.GripperState` | opening width |
+//! | `/hand/state` | `slidetrack.HandState` | `opening`: the gripper's opening width |
 //! | `/robot/state` | `slidetrack.RobotState` | joints, velocities, end-effector pose |
 //! | `/robot/ee_pose` | `foxglove.PoseInFrame` | end-effector pose in `base` |
 //!
@@ -33,9 +33,9 @@ use serde_json::{Value, json};
 use slidetrack_core::{FingerReading, PerFinger, SensorLayout, TactileInfo, TactileLayout, TimeNs};
 use slidetrack_session::vision_pose::XyzM;
 use slidetrack_session::{
-    ArucoDetection, ChannelHandle, ChannelMessage, FoxgloveTime, FrameTransform, PoseInFrame, Quaternion,
-    Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TactileRaw, TactileTare, TactileZeroed,
-    TaxelLayout, Untyped, VisionPose, sensor_taxels,
+    ArucoDetection, ChannelHandle, ChannelMessage, FoxgloveTime, FrameTransform, HandState, PoseInFrame,
+    Quaternion, Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TactileRaw, TactileTare,
+    TactileZeroed, TaxelLayout, Untyped, VisionPose, sensor_taxels,
 };
 
 use super::xela_csv::{MarkerPose, PatchCounts, RobotState, SENSORS, TAXELS, XelaSequence};
@@ -62,20 +62,10 @@ pub const BASE_FRAME: &str = "base";
 pub const MARKER_POSE_TOPICS: [&str; 2] = ["/markers/marker1/pose", "/markers/marker2/pose"];
 /// Topic of the markers' frame transforms.
 pub const MARKER_TF_TOPIC: &str = "/markers/tf";
-/// Topic of the gripper state.
-pub const GRIPPER_TOPIC: &str = "/gripper/state";
 /// Topic of the robot state.
 pub const ROBOT_TOPIC: &str = "/robot/state";
 /// Topic of the end-effector pose.
 pub const EE_POSE_TOPIC: &str = "/robot/ee_pose";
-
-/// `/gripper/state`: the Panda gripper, one row of `robot_state.csv`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GripperState {
-    /// `position_panda_finger`: the opening width between the fingers (m;
-    /// most likely, see `docs/real-data.md`).
-    pub opening_width_m: f64,
-}
 
 /// `/robot/state`: the Franka Panda, one row of `robot_state.csv`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -116,14 +106,6 @@ fn closed_schema(title: &str, properties: Value) -> Value {
         "required": required,
         "additionalProperties": false,
     })
-}
-
-/// The JSON Schema of `/gripper/state`.
-pub fn gripper_schema() -> Value {
-    closed_schema(
-        "slidetrack.GripperState",
-        json!({"opening_width_m": {"type": "number", "description": "opening width between the fingers (m)"}}),
-    )
 }
 
 /// The JSON Schema of `/robot/state`.
@@ -263,7 +245,7 @@ struct Channels {
     aruco: ChannelHandle<ArucoDetection>,
     marker_pose: [ChannelHandle<Untyped>; 2],
     marker_tf: ChannelHandle<Untyped>,
-    gripper: ChannelHandle<Untyped>,
+    gripper: ChannelHandle<HandState>,
     robot: ChannelHandle<Untyped>,
     ee_pose: ChannelHandle<Untyped>,
 }
@@ -299,7 +281,10 @@ impl Channels {
                 &tf_schema,
                 "camera -> marker1 / marker2, when seen",
             )?,
-            gripper: json_channel(rec, GRIPPER_TOPIC, &gripper_schema(), "position_panda_finger")?,
+            gripper: rec.register::<HandState>(BTreeMap::from([(
+                "description".to_string(),
+                "opening = position_panda_finger (the gripper's opening width, m)".to_string(),
+            )]))?,
             robot: json_channel(rec, ROBOT_TOPIC, &robot_schema(), "robot_state.csv")?,
             ee_pose: json_channel(rec, EE_POSE_TOPIC, &pose_schema, "ee_state_* in the base frame")?,
         })
@@ -427,7 +412,8 @@ fn write_rows(
             }
         }
         if let Some(r) = rows.robot(i) {
-            log_value(rec, &ch.gripper, t, seq, &GripperState { opening_width_m: r.finger_position_m })?;
+            let gripper = HandState { finger_travel: Vec::new(), opening: Some(r.finger_position_m) };
+            rec.log_json(&ch.gripper, t, t, seq, &gripper)?;
             log_value(rec, &ch.robot, t, seq, &RobotStateMessage::from(r))?;
             let ee = pose_of(t, BASE_FRAME, r.ee_position_in_base_m, r.ee_orientation_in_base_xyzw);
             log_value(rec, &ch.ee_pose, t, seq, &ee)?;
