@@ -16,8 +16,12 @@
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod can;
+pub mod can_config;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod can_emulator;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod can_hand;
+pub mod can_layout;
 pub mod can_protocol;
 pub mod candump;
 pub mod config;
@@ -44,6 +48,8 @@ pub mod xela_ws;
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use can::{CanBus, CanTactile, SocketCanBus};
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use can_emulator::EmulatedSlcanTactile;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use can_hand::CanHand;
 pub use config::HwRigConfig;

@@ -7,6 +7,7 @@ use slidetrack_core::{HandActuator, WallClock};
 
 use super::*;
 use crate::can_hand::CanHand;
+use crate::can_layout::{PayloadFormat, ValidityByte};
 use crate::can_protocol::XelaCanLayout;
 use crate::config::CanHandConfig;
 use crate::hand_can::{HandMessage, HandState};
@@ -83,6 +84,11 @@ fn tactile_cfg() -> CanTactileConfig {
         },
         timeout_ms: 30,
         startup_timeout_ms: 30,
+        // The legacy drivers' status byte, checked only because it is configured.
+        payload: PayloadFormat {
+            valid: Some(ValidityByte { byte: 0, below: 250 }),
+            ..PayloadFormat::default()
+        },
         ..CanTactileConfig::default()
     }
 }
@@ -95,11 +101,11 @@ fn scan_frames(l: &XelaCanLayout, scan: u16, invalid: Option<u16>) -> Vec<CanFra
 fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
     let bus = Arc::new(MemoryBus::default());
     let cfg = tactile_cfg();
-    let l = cfg.layout();
+    let l = cfg.legacy_layout();
     for s in 0..3 {
         bus.queue(scan_frames(&l, s, if s == 1 { Some(25) } else { None }));
     }
-    let mut tactile = CanTactile::with_bus(bus.clone(), &cfg, Arc::new(WallClock::start())).unwrap();
+    let mut tactile = CanTactile::with_bus(bus.clone(), &cfg, 100.0, Arc::new(WallClock::start())).unwrap();
     assert_eq!(bus.sent(), vec![l.start_command()]);
     let a = tactile.read().unwrap();
     let board: Vec<u16> = (0..4).chain(16..26).collect();
@@ -109,7 +115,7 @@ fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
     let b = tactile.read().unwrap();
     assert_eq!((b.sequence, b.raw[0]), (2, [2, 0, 5]));
     let c = tactile.counters().unwrap();
-    assert_eq!((c.frames, c.invalid_samples, c.incomplete_scans), (96, 1, 1));
+    assert_eq!((c.frames, c.invalid_samples, c.incomplete_scans), (42, 1, 1), "only mapped ids count");
     let info = tactile.info();
     assert_eq!((info.layout.taxel_count(), info.fingers), (14, cfg.fingers.clone()));
     let e = tactile.read().unwrap_err();
@@ -123,10 +129,10 @@ fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
 #[test]
 fn a_silent_board_times_out_with_the_ids_it_waited_for() {
     let bus = Arc::new(MemoryBus::default());
-    let mut tactile = CanTactile::with_bus(bus, &tactile_cfg(), Arc::new(WallClock::start())).unwrap();
+    let mut tactile = CanTactile::with_bus(bus, &tactile_cfg(), 100.0, Arc::new(WallClock::start())).unwrap();
     let e = tactile.read().unwrap_err();
     assert_eq!(e.kind, ErrorKind::Timeout);
-    assert!(e.detail.contains("0x710..=0x72F"), "{e}");
+    assert!(e.detail.contains("first id 0x710, 14 ids"), "{e}");
 }
 
 fn hand_cfg() -> CanHandConfig {
@@ -187,9 +193,9 @@ fn the_tactile_board_and_the_hand_work_on_vcan() {
     let mut tactile = CanTactile::open(&cfg, Arc::new(WallClock::start())).unwrap();
     // The board's side: wait for the start command, then stream three scans.
     let start = board.recv(Duration::from_secs(1)).unwrap().expect("the start command");
-    assert_eq!(start, cfg.layout().start_command());
+    assert_eq!(start, cfg.legacy_layout().start_command());
     for s in 0..3 {
-        for f in scan_frames(&cfg.layout(), s, None) {
+        for f in scan_frames(&cfg.legacy_layout(), s, None) {
             board.send(&f).unwrap();
         }
     }

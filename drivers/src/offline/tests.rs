@@ -44,7 +44,7 @@ fn log_lines(scans: u64) -> Vec<String> {
 
 fn decode_log(lines: &[String]) -> (Vec<TactileSample>, DecoderCounters, u64) {
     let text = lines.join("\n") + "\n";
-    let mut d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None);
+    let mut d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None).unwrap();
     let samples: Vec<_> = d.by_ref().collect();
     (samples, d.counters(), d.bad_lines())
 }
@@ -100,9 +100,9 @@ fn other_interfaces_are_skipped_when_one_is_named() {
         *l = l.replace(" can0 ", " can1 ");
     }
     let text = lines.join("\n");
-    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), Some("can0".into()));
+    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), Some("can0".into())).unwrap();
     assert_eq!(d.count(), 1);
-    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None);
+    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None).unwrap();
     assert_eq!(d.count(), 3);
 }
 
@@ -174,7 +174,7 @@ mod arbitrary {
                     text[k] = byte;
                 }
             }
-            let mut d = CanLogDecoder::new(text.as_slice(), &can_cfg(), None);
+            let mut d = CanLogDecoder::new(text.as_slice(), &can_cfg(), None).unwrap();
             let mut last = TimeNs::ZERO;
             let mut n = 0u64;
             for sample in d.by_ref() {

@@ -16,7 +16,9 @@ use slidetrack_core::{
 use slidetrack_drivers::config::{
     CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, TactileDevice, V4l2CameraConfig,
 };
-use slidetrack_drivers::{CanHand, CanTactile, EmulatedSerialTactile, SerialTactile, V4l2Camera};
+use slidetrack_drivers::{
+    CanHand, CanTactile, EmulatedSerialTactile, EmulatedSlcanTactile, SerialTactile, V4l2Camera,
+};
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, Stream, stream_seed};
 
@@ -28,7 +30,10 @@ pub fn describe(hw: &HwRigConfig) -> String {
     let tactile = match &hw.tactile {
         TactileDevice::Sim => "sim".to_string(),
         TactileDevice::Serial(s) => format!("serial {}", s.port),
-        TactileDevice::Can(c) => format!("CAN {} board {}", c.interface, c.board),
+        TactileDevice::Can(c) => match &c.slcan {
+            Some(s) => format!("CAN via SLCAN adapter {}", s.port),
+            None => format!("CAN {}", c.interface),
+        },
     };
     let camera = match &hw.camera {
         CameraDevice::None => "none".to_string(),
@@ -64,10 +69,15 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
         );
     };
     tracing::info!("{}", describe(hw));
-    let emulated = matches!(&hw.tactile, TactileDevice::Serial(s) if s.port == EMULATED_PORT);
+    let emulated = match &hw.tactile {
+        TactileDevice::Serial(s) => s.port == EMULATED_PORT,
+        TactileDevice::Can(c) => c.slcan.as_ref().is_some_and(|s| s.port == EMULATED_PORT),
+        _ => false,
+    };
     if emulated && !matches!(hw.hand, HandDevice::Sim) {
         bail!(
-            "hw.tactile port = \"emulated\" needs hw.hand kind = \"sim\": the emulated sensors feel the simulated hand"
+            "hw.tactile port = \"emulated\" (serial or slcan) needs hw.hand kind = \"sim\": the emulated sensors \
+             feel the simulated hand"
         );
     }
     let (prepared, markers) = prepare_camera(spec, &hw.camera)?;
@@ -102,6 +112,10 @@ pub fn build_hw_rig(spec: &TrialSpec) -> Result<RigSetup> {
         }
         (TactileDevice::Serial(s), _) => {
             Box::new(SerialTactile::open(&s.port, s, s.rate_hz, Arc::clone(&clock))?)
+        }
+        (TactileDevice::Can(c), Some(t)) if emulated => {
+            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
+            Box::new(EmulatedSlcanTactile::start(Box::new(t), c, sim_rate, Arc::clone(&clock))?)
         }
         (TactileDevice::Can(c), _) => Box::new(CanTactile::open(c, Arc::clone(&clock))?),
         (TactileDevice::Sim, None) => bail!("internal: the simulated tactile modules were not built"),
