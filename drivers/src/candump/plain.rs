@@ -66,6 +66,16 @@ pub fn parse_plain_line(line: &str) -> Result<CandumpRecord, CandumpParseError> 
     Ok(CandumpRecord { t_us, interface, frame: CandumpFrame::Data { id, extended, data } })
 }
 
+/// A line of candump's console output for a data frame, as `candump can0`
+/// (no time) or `candump -t a can0` / `-t z` / `-t d` (`t_us` in
+/// microseconds) prints it, without the newline.
+pub fn format_plain_line(t_us: Option<u64>, interface: &str, id: u32, extended: bool, data: &[u8]) -> String {
+    let time = t_us.map_or(String::new(), |t| format!("({:03}.{:06}) ", t / 1_000_000, t % 1_000_000));
+    let id = if extended { format!("{id:08X}") } else { format!("{id:03X}") };
+    let bytes: String = data.iter().map(|b| format!(" {b:02X}")).collect();
+    format!(" {time} {interface}  {id}   [{}] {bytes}", data.len())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -90,6 +100,10 @@ mod tests {
             CandumpFrame::Other
         );
         assert_eq!(parse_plain_line("  can0  201  [12]  00 00").unwrap().frame, CandumpFrame::Other);
+        let line = format_plain_line(Some(1_021), "can0", 0x201, false, &[7, 0]);
+        assert_eq!(line, " (000.001021)  can0  201   [2]  07 00");
+        assert_eq!(parse_plain_line(&line).unwrap().t_us, Some(1021));
+        assert_eq!(format_plain_line(None, "can0", 0x201, false, &[]), "  can0  201   [0] ");
         // Both formats through one entry point.
         assert_eq!(parse_any_line("(1.000000) can0 201#0700").unwrap().t_us, Some(1_000_000));
         assert_eq!(parse_any_line("  can0  201   [2]  07 00").unwrap().t_us, None);
