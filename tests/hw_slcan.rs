@@ -94,18 +94,19 @@ fn records_every_taxel_as_simulated(hw: &str, rig_name: &str) {
     let hw_file = collect(&rig, "hw", &dir.path().join("hw"));
     let sim_file = collect(&rig, "sim", &dir.path().join("sim"));
 
-    let info = SessionInfo::read(&hw_file, ReadOptions::default()).unwrap();
+    let info = SessionInfo::read(&hw_file, ReadOptions::default()).expect("a readable session");
     assert_eq!(info.metadata["slidetrack.outcome"]["completed"], "true");
     assert_eq!(info.metadata["slidetrack"]["rig"], rig_name);
-    let raw_channel = info.channels.iter().find(|c| c.topic == "/tactile/raw").unwrap();
-    let layout = TaxelLayout::from_channel_metadata(&raw_channel.metadata).unwrap().unwrap();
+    let raw_channel = info.channels.iter().find(|c| c.topic == "/tactile/raw").expect("a raw channel");
+    let layout =
+        TaxelLayout::from_channel_metadata(&raw_channel.metadata).expect("a layout").expect("some layout");
     assert!(layout.device.starts_with("/dev/pts/"), "{}", layout.device);
     let grids: Vec<(String, u32, u32)> =
         layout.sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect();
     assert_eq!(grids, ["thumb", "index", "middle"].map(|n| (n.to_string(), 4, 4)));
 
-    let hw_raw = read_channel::<TactileRaw>(&hw_file, ReadOptions::default()).unwrap();
-    let sim_raw = read_channel::<TactileRaw>(&sim_file, ReadOptions::default()).unwrap();
+    let hw_raw = read_channel::<TactileRaw>(&hw_file, ReadOptions::default()).expect("raw scans");
+    let sim_raw = read_channel::<TactileRaw>(&sim_file, ReadOptions::default()).expect("raw scans");
     let (n_hw, n_sim) = (hw_raw.len() as f64, sim_raw.len() as f64);
     assert!((n_hw - n_sim).abs() / n_sim < 0.1, "{n_hw} scans through the adapter, {n_sim} simulated");
     for (_, scan) in &hw_raw {
@@ -119,7 +120,10 @@ fn records_every_taxel_as_simulated(hw: &str, rig_name: &str) {
         assert_eq!(a.sensors, b.sensors, "scan {k}");
         assert_eq!(a.sequence, k as u64, "scans counted from 0, none lost");
     }
-    let (_, last) = read_channel::<TactileDecoder>(&hw_file, ReadOptions::default()).unwrap().pop().unwrap();
+    let (_, last) = read_channel::<TactileDecoder>(&hw_file, ReadOptions::default())
+        .expect("counters")
+        .pop()
+        .expect("some counters");
     assert_eq!((last.incomplete_scans, last.invalid_samples), (0, 0), "{last:?}");
     assert_eq!(last.frames, 48 * hw_raw.len() as u64, "one frame per taxel: {last:?}");
 }

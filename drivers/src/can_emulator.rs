@@ -11,7 +11,7 @@ use slidetrack_core::{
     Clock, DecoderCounters, DeviceError, ErrorKind, TactileInfo, TactileSample, TactileSource,
 };
 
-use crate::can::CanTactile;
+use crate::can_tactile::CanTactile;
 use crate::config::{CanTactileConfig, EMULATED_PORT};
 use crate::emulator::check_emulated_sensors;
 use crate::slcan_bus::SlcanBus;

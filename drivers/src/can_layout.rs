@@ -322,6 +322,12 @@ pub enum CanMapError {
 /// A CAN id: `(id, extended)`.
 pub type IdKey = (u32, bool);
 
+/// One taxel's id: `(sensor index, taxel, id, the setting that gives it)`.
+pub type Assignment = (usize, u32, IdKey, String);
+
+/// Per slot its id and setting, and the slot of each id.
+type SlotTable = (Vec<(IdKey, String)>, HashMap<IdKey, usize>);
+
 /// A layout resolved against the configured sensors: one slot per taxel
 /// of every sensor, in scan order (sensor by sensor, row-major), and the
 /// id of each.
@@ -371,10 +377,7 @@ fn check_id(key: &str, id: u32, extended: bool) -> Result<(), CanMapError> {
 }
 
 /// Builds the slot table from `(sensor index, taxel, id, key)` assignments.
-fn resolve_slots(
-    sensors: &[HwSensor],
-    assignments: Vec<(usize, u32, IdKey, String)>,
-) -> Result<(Vec<(IdKey, String)>, HashMap<IdKey, usize>), CanMapError> {
+fn resolve_slots(sensors: &[HwSensor], assignments: Vec<Assignment>) -> Result<SlotTable, CanMapError> {
     let offsets: Vec<usize> = sensors
         .iter()
         .scan(0usize, |acc, s| {
@@ -418,7 +421,7 @@ pub fn legacy_assignments(
     sensors: &[HwSensor],
     taxel_base_id: u32,
     taxels_per_module: u16,
-) -> Vec<(usize, u32, IdKey, String)> {
+) -> Vec<Assignment> {
     let per = u64::from(taxels_per_module);
     let mut out = Vec::new();
     for (s, sensor) in sensors.iter().enumerate() {
@@ -432,10 +435,7 @@ pub fn legacy_assignments(
 }
 
 /// The assignments of an explicit map.
-pub fn map_assignments(
-    sensors: &[HwSensor],
-    map: &[MapEntry],
-) -> Result<Vec<(usize, u32, IdKey, String)>, CanMapError> {
+pub fn map_assignments(sensors: &[HwSensor], map: &[MapEntry]) -> Result<Vec<Assignment>, CanMapError> {
     let mut out = Vec::new();
     for (index, e) in map.iter().enumerate() {
         let bad = |why: String| CanMapError::Entry { index, why };
@@ -491,7 +491,7 @@ pub fn map_assignments(
 /// command frames (`(frame setting, key)`) and the scan mode.
 pub fn resolve(
     sensors: &[HwSensor],
-    assignments: Vec<(usize, u32, IdKey, String)>,
+    assignments: Vec<Assignment>,
     payload: PayloadFormat,
     start: &[(&CommandFrame, String)],
     stop: &[(&CommandFrame, String)],

@@ -7,12 +7,17 @@ use slidetrack_core::{HandActuator, WallClock};
 
 use super::bus_errors::BusProblem;
 use super::*;
+use crate::can_tactile::CanTactile;
+use crate::config::CanTactileConfig;
+use std::sync::Arc;
+
 use crate::can_hand::CanHand;
 use crate::can_layout::{PayloadFormat, ValidityByte};
 use crate::can_protocol::XelaCanLayout;
 use crate::config::CanHandConfig;
 use crate::hand_can::{HandMessage, HandState};
 use crate::sensors::HwSensor;
+use slidetrack_core::{Clock, ErrorKind, TactileSource};
 use slidetrack_core::{FingerReading, PerFinger};
 
 /// A bus in memory: records what is sent, serves queued frames, and can
