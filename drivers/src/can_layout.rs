@@ -452,6 +452,17 @@ pub fn map_assignments(sensors: &[HwSensor], map: &[MapEntry]) -> Result<Vec<Ass
                             (a row/column pattern)"
                 .into()));
         }
+        let stray = [
+            ("taxel", e.taxel.is_some() && e.id.is_none()),
+            ("count", e.count.is_some() && e.first_id.is_none()),
+            ("first_taxel", e.first_taxel.is_some() && e.first_id.is_none()),
+            ("id_step", e.id_step.is_some() && e.first_id.is_none()),
+            ("row_stride", e.row_stride.is_some() && e.base_id.is_none()),
+            ("col_stride", e.col_stride.is_some() && e.base_id.is_none()),
+        ];
+        if let Some((key, _)) = stray.iter().find(|(_, s)| *s) {
+            return Err(bad(format!("`{key}` does not belong to this form of entry")));
+        }
         let mut push = |taxel: u64, id: u64| -> Result<(), CanMapError> {
             if taxel >= taxels {
                 return Err(bad(format!("taxel {taxel} is beyond sensor `{}`'s {taxels} taxels", e.sensor)));

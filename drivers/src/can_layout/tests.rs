@@ -88,6 +88,8 @@ fn bad_maps_name_the_entry_and_the_fault() {
     assert!(e.starts_with("hw.tactile.map[0]: give exactly one of `id`"), "{e}");
     let e = err(vec![whole("patch", 0x300), MapEntry { id: Some(0x400), taxel: Some(2), ..entry("strip") }]);
     assert_eq!(e, "hw.tactile.map[1]: taxel 2 is beyond sensor `strip`'s 2 taxels");
+    let e = err(vec![MapEntry { first_id: Some(0x300), taxel: Some(1), ..entry("patch") }]);
+    assert_eq!(e, "hw.tactile.map[0]: `taxel` does not belong to this form of entry");
     let e = err(vec![whole("patch", 0x7FC), whole("strip", 0x600)]);
     assert_eq!(e, "hw.tactile.map[0] (taxel 4) = 0x800 is beyond the 11-bit CAN id range");
     let twice = vec![
