@@ -221,3 +221,65 @@ fn decode_refuses_bad_input_with_one_clear_line() {
     let e = fails(&["-q", "decode", "--can-log", empty.to_str().unwrap(), "--taxels", "0", "--out", out2]);
     assert!(e.contains("taxels"), "{e}");
 }
+
+/// candump's console output (no times) of two 2x2 patches in an explicit
+/// id map with little-endian values: decoded with the rig's layout, every
+/// value kept, in log order.
+#[test]
+fn plain_candump_output_decodes_in_a_configured_map_layout() {
+    use slidetrack_drivers::candump::plain::format_plain_line;
+    let value = |s: u16, k: u16| [100 + s, 200 + k, 300 + s * k];
+    let mut lines = vec![format_plain_line(None, "can0", 0x300, false, &[9, 9])]; // an unmapped id
+    for s in 0..6u16 {
+        for k in 0..8u16 {
+            if s == 2 && k == 3 {
+                continue; // a lost frame: scan 2 is dropped
+            }
+            // Sensor a at 0x400 + 0x10 row + col, sensor b at 0x500, 0x502, ...
+            let id = if k < 4 {
+                0x400 + 0x10 * u32::from(k / 2) + u32::from(k % 2)
+            } else {
+                0x500 + 2 * u32::from(k - 4)
+            };
+            let data: Vec<u8> = value(s, k).iter().flat_map(|v| v.to_le_bytes()).collect();
+            lines.push(format_plain_line(None, "can0", id, false, &data));
+        }
+    }
+    lines.push("  can0  4A0   [8]  remote request".into());
+    lines.push("this line is not candump output".into());
+    let dir = tempdir();
+    let log = dir.path().join("dump.txt");
+    std::fs::write(&log, lines.join("\n") + "\n").unwrap();
+    let rig = dir.path().join("rig.toml");
+    let sensor = |name: &str, module: u32| {
+        format!(
+            "[[hw.tactile.sensors]]\nname = \"{name}\"\nmodule = {module}\nfinger = \"thumb\"\nmodel = \"uSPa22\"\nrows = 2\ncols = 2\n"
+        )
+    };
+    let table = format!(
+        "[hw.tactile]\nkind = \"can\"\nfingers = {{ thumb = {{ sensor = \"a\" }}, index = {{ sensor = \"b\" }}, \
+         middle = {{ sensor = \"b\", taxel = 3 }} }}\npayload = {{ byte_order = \"little\", x = 0, y = 2, z = 4 }}\n\
+         {}{}[[hw.tactile.map]]\nsensor = \"a\"\nbase_id = 0x400\nrow_stride = 0x10\n\
+         [[hw.tactile.map]]\nsensor = \"b\"\nfirst_id = 0x500\nid_step = 2\n",
+        sensor("a", 0),
+        sensor("b", 1)
+    );
+    std::fs::write(&rig, table).unwrap();
+    let out = dir.path().join("dump.mcap");
+    let p = |p: &Path| p.to_str().unwrap().to_string();
+    let summary = ok(&["-q", "decode", "--can-log", &p(&log), "--config", &p(&rig), "--out", &p(&out)]);
+    assert!(summary.contains("5 scans") && summary.contains("1 unreadable"), "{summary}");
+    let raw = read_channel::<TactileRaw>(&out, ReadOptions::default()).unwrap();
+    let scans: Vec<u16> = vec![0, 1, 3, 4, 5];
+    assert_eq!(raw.len(), scans.len());
+    for ((_, msg), &s) in raw.iter().zip(&scans) {
+        let got: Vec<RawTaxel> =
+            msg.sensors.iter().flat_map(|x| x.taxels.iter().map(|v| v.to_array())).collect();
+        assert_eq!(got, (0..8).map(|k| value(s, k)).collect::<Vec<_>>(), "scan {s}");
+    }
+    let (_, last) = read_channel::<TactileDecoder>(&out, ReadOptions::default()).unwrap().pop().unwrap();
+    assert_eq!((last.incomplete_scans, last.frames), (1, 47));
+    let info: serde_json::Value = serde_json::from_str(&ok(&["info", &p(&out), "--json"])).unwrap();
+    let timing = info["metadata"]["slidetrack.source"]["timing"].as_str().unwrap().to_string();
+    assert!(timing.starts_with("log order"), "{timing}");
+}

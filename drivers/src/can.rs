@@ -1,20 +1,43 @@
-//! CAN devices over SocketCAN: a small [`CanBus`] seam (so the backends are
-//! tested without a bus) and the uSkin board as a [`TactileSource`]. The
-//! hand is in [`super::can_hand`].
+//! CAN buses: a small [`CanBus`] seam (SocketCAN here, an SLCAN adapter in
+//! [`crate::slcan_bus`], memory in tests). The tactile boards on it are
+//! [`crate::can_tactile`], the hand [`super::can_hand`].
+//!
+//! SocketCAN sockets ask the kernel for error frames (bus-off,
+//! error-passive, missing ACK, protocol errors: [`bus_errors::ERROR_MASK`])
+//! and for receive timestamps (`SO_TIMESTAMPNS`, the kernel's
+//! `CLOCK_REALTIME` when the frame arrived). A timestamp is mapped onto the
+//! session clock by its age: `t = clock.now() - (SystemTime::now() -
+//! timestamp)`, read right after the frame, so that the time a frame waited
+//! in the socket's queue is not counted; the wall clock's steps between the
+//! two readings are microseconds apart and cancel out.
 
 use std::io;
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
-use slidetrack_core::{
-    Clock, DecoderCounters, DeviceError, ErrorKind, TactileInfo, TactileSample, TactileSource,
-};
-use socketcan::{CanDataFrame, EmbeddedFrame, ExtendedId, Id, Socket, StandardId};
+use slidetrack_core::{DeviceError, ErrorKind};
+use socketcan::{CanDataFrame, EmbeddedFrame, ExtendedId, Id, Socket, SocketOptions, StandardId};
 
-use crate::can_protocol::{CanFrame, CanScanAssembler};
-use crate::config::CanTactileConfig;
+use crate::can_protocol::CanFrame;
 use crate::io_error_kind;
-use crate::sensors::{pick_board_taxels, tactile_info};
+
+pub mod bus_errors;
+
+use bus_errors::BusProblem;
+
+/// What a bus delivered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BusEvent {
+    /// A data frame.
+    Frame {
+        /// The frame.
+        frame: CanFrame,
+        /// How long ago the kernel (or the host's reader) received it, when
+        /// known; `None`: just now.
+        age: Option<Duration>,
+    },
+    /// An error frame's problem.
+    Problem(BusProblem),
+}
 
 /// Moves CAN frames; the backends hold one.
 ///
@@ -30,12 +53,19 @@ pub trait CanBus: Send + Sync {
     fn recv(&self, timeout: Duration) -> io::Result<Option<CanFrame>>;
     /// The interface name, for messages.
     fn name(&self) -> &str;
+    /// The next data frame with its age, or a bus problem; `None` after
+    /// `timeout`. By default: [`recv`](Self::recv), no age, no problems.
+    fn recv_event(&self, timeout: Duration) -> io::Result<Option<BusEvent>> {
+        Ok(self.recv(timeout)?.map(|frame| BusEvent::Frame { frame, age: None }))
+    }
 }
 
 /// A raw SocketCAN socket bound to one interface.
 pub struct SocketCanBus {
     socket: socketcan::CanSocket,
     name: String,
+    /// `SO_TIMESTAMPNS` is on.
+    timestamps: bool,
 }
 
 impl SocketCanBus {
@@ -52,7 +82,32 @@ impl SocketCanBus {
                 format!("cannot open CAN interface: {e} (is it up? `ip link show {interface}`)"),
             )
         })?;
-        Ok(SocketCanBus { socket, name: interface.to_string() })
+        Ok(SocketCanBus { socket, name: interface.to_string(), timestamps: false })
+    }
+
+    /// Opens `interface` for a tactile source: error frames of
+    /// [`bus_errors::ERROR_MASK`] and kernel receive timestamps on.
+    pub fn open_for_tactile(interface: &str) -> Result<SocketCanBus, DeviceError> {
+        let mut bus = SocketCanBus::open(interface)?;
+        bus.socket.set_error_filter(bus_errors::ERROR_MASK).map_err(|e| {
+            DeviceError::new(io_error_kind(&e), interface, format!("cannot set the CAN error filter: {e}"))
+        })?;
+        match bus.socket.set_recv_timestamp(true) {
+            Ok(()) => bus.timestamps = true,
+            Err(e) => tracing::debug!("{interface}: no kernel receive timestamps ({e}); stamping on read"),
+        }
+        Ok(bus)
+    }
+
+    /// One frame (data or error) with its kernel timestamp when on.
+    fn read_any(&self, timeout: Duration) -> io::Result<(socketcan::CanFrame, Option<SystemTime>)> {
+        if self.timestamps {
+            self.socket.set_read_timeout(timeout)?;
+            let (frame, at) = self.socket.read_frame_with_timestamp()?;
+            Ok((frame, Some(at)))
+        } else {
+            Ok((self.socket.read_frame_timeout(timeout)?, None))
+        }
     }
 }
 
@@ -99,125 +154,35 @@ impl CanBus for SocketCanBus {
     fn name(&self) -> &str {
         &self.name
     }
-}
 
-/// A uSkin board on CAN (XELA layout, see `docs/protocols.md`).
-pub struct CanTactile {
-    bus: Arc<dyn CanBus>,
-    device: String,
-    assembler: CanScanAssembler,
-    board_taxels: Vec<usize>,
-    info: TactileInfo,
-    clock: Arc<dyn Clock>,
-    timeout: Duration,
-    startup_timeout: Duration,
-    started: bool,
-    frames_seen: u64,
-    failed: Option<DeviceError>,
-}
-
-impl CanTactile {
-    /// Opens `cfg.interface` and starts the board.
-    pub fn open(cfg: &CanTactileConfig, clock: Arc<dyn Clock>) -> Result<CanTactile, DeviceError> {
-        CanTactile::with_bus(Arc::new(SocketCanBus::open(&cfg.interface)?), cfg, clock)
-    }
-
-    /// The board on `bus`: sends the start command.
-    pub fn with_bus(
-        bus: Arc<dyn CanBus>,
-        cfg: &CanTactileConfig,
-        clock: Arc<dyn Clock>,
-    ) -> Result<CanTactile, DeviceError> {
-        let layout = cfg.layout();
-        let device = bus.name().to_string();
-        bus.send(&layout.start_command()).map_err(|e| {
-            DeviceError::new(io_error_kind(&e), &device, format!("cannot send the start command: {e}"))
-        })?;
-        Ok(CanTactile {
-            device: device.clone(),
-            assembler: CanScanAssembler::new(layout, CanScanAssembler::span_for_rate(cfg.rate_hz)),
-            board_taxels: cfg.board_taxels(),
-            info: tactile_info(&device, cfg.rate_hz, &cfg.sensors, &cfg.fingers),
-            clock,
-            timeout: Duration::from_millis(cfg.timeout_ms),
-            startup_timeout: Duration::from_millis(cfg.startup_timeout_ms.max(cfg.timeout_ms)),
-            started: false,
-            frames_seen: 0,
-            failed: None,
-            bus,
-        })
-    }
-
-    fn timeout_error(&self, waited: Duration) -> DeviceError {
-        let ms = waited.as_millis();
-        let l = self.assembler.layout();
-        let detail = if self.assembler.counters().frames == 0 {
-            format!(
-                "no taxel frames (ids 0x{:X}..=0x{:X}) within {ms} ms ({} other frames): is board {} powered \
-                 and streaming?",
-                l.taxel_base_id,
-                l.taxel_base_id + u32::from(l.taxels) - 1,
-                self.frames_seen,
-                l.board
-            )
-        } else {
-            format!("no complete scan within {ms} ms ({})", self.assembler.counters())
-        };
-        DeviceError::new(ErrorKind::Timeout, &self.device, detail)
-    }
-}
-
-impl TactileSource for CanTactile {
-    /// # Contract
-    /// - Blocks until a scan of the board is complete and its mapped taxels
-    ///   are valid; scans with a mapped taxel marked invalid are dropped and
-    ///   counted as incomplete. The sample time is the session time at which
-    ///   the scan's last frame was received; `sequence` counts the board's
-    ///   scans (dropped ones included).
-    /// - `Timeout` when no usable scan arrives within `timeout_ms` (the first:
-    ///   `startup_timeout_ms`); `Disconnected` when the interface goes away,
-    ///   after which every call fails.
-    fn read(&mut self) -> Result<TactileSample, DeviceError> {
-        if let Some(e) = &self.failed {
-            return Err(e.clone());
-        }
-        let limit = if self.started { self.timeout } else { self.startup_timeout };
-        let deadline = Instant::now() + limit;
+    fn recv_event(&self, timeout: Duration) -> io::Result<Option<BusEvent>> {
+        let deadline = Instant::now() + timeout;
         loop {
             let remaining = deadline.saturating_duration_since(Instant::now());
             if remaining.is_zero() {
-                return Err(self.timeout_error(limit));
+                return Ok(None);
             }
-            let frame = match self.bus.recv(remaining) {
-                Ok(Some(f)) => f,
-                Ok(None) => continue,
-                Err(e) => {
-                    let kind = io_error_kind(&e);
-                    let err = DeviceError::new(kind, &self.device, format!("receive failed: {e}"));
-                    if kind == ErrorKind::Disconnected {
-                        self.failed = Some(err.clone());
+            match self.read_any(remaining) {
+                Ok((socketcan::CanFrame::Data(d), at)) => {
+                    let age = at.map(|at| SystemTime::now().duration_since(at).unwrap_or_default());
+                    let id = socketcan::Frame::raw_id(&d);
+                    if let Some(frame) = CanFrame::new(id, d.is_extended(), d.data()) {
+                        return Ok(Some(BusEvent::Frame { frame, age }));
                     }
-                    return Err(err);
                 }
-            };
-            self.frames_seen += 1;
-            let Some(scan) = self.assembler.push(self.clock.now(), &frame) else { continue };
-            match pick_board_taxels(&scan.taxels, &self.board_taxels) {
-                Some(raw) => {
-                    self.started = true;
-                    return Ok(TactileSample::new(scan.t, scan.sequence, raw));
+                Ok((socketcan::CanFrame::Error(e), _)) => {
+                    if let Some(p) = bus_errors::classify(e.error_bits(), e.data()) {
+                        return Ok(Some(BusEvent::Problem(p)));
+                    }
                 }
-                None => self.assembler.count_unusable_scan(),
+                Ok(_) => {} // remote frames
+                Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => {
+                    return Ok(None);
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
             }
         }
-    }
-
-    fn info(&self) -> TactileInfo {
-        self.info.clone()
-    }
-
-    fn counters(&self) -> Option<DecoderCounters> {
-        Some(self.assembler.counters())
     }
 }
 

@@ -1,21 +1,23 @@
-//! uSkin tactile boards on CAN, in the XELA-style layout used by public
-//! uSkin drivers (see `docs/protocols.md`), without I/O:
+//! CAN frames as the decoders see them, and the legacy uSkin board layout
+//! of the 2018-19 third-party drivers (ARQ-CRISP/uskin_can_drivers, o2as
+//! `o2as_xela_sensor`; not verified against XELA, see `docs/protocols.md`):
 //!
 //! - the host starts streaming with a frame to `start_base_id | board`
 //!   carrying `[7, 0]`;
 //! - the board then sends, every scan, one frame per taxel at
-//!   `taxel_base_id + taxel`: data byte 0 is a status byte (250 or more marks
-//!   an invalid sample), bytes 1-6 hold x, y, z as big-endian u16 raw counts.
+//!   `taxel_base_id + taxel`: bytes 1-6 hold x, y, z as big-endian u16 raw
+//!   counts; those drivers read byte 0 as a status byte (250 or more:
+//!   invalid), which no public source explains.
 //!
-//! [`CanScanAssembler`] turns those frames into scans.
+//! Frames become scans in [`crate::can_layout`], for this layout and others.
 
 use serde::{Deserialize, Serialize};
-use slidetrack_core::{DecoderCounters, RawTaxel, TimeNs};
+use slidetrack_core::RawTaxel;
 use thiserror::Error;
 
 /// Largest standard (11-bit) CAN identifier.
 pub const MAX_STANDARD_ID: u32 = 0x7FF;
-/// A status byte at or above this marks the sample invalid.
+/// A status byte at or above this marks the sample invalid, in the legacy drivers.
 pub const INVALID_STATUS: u8 = 250;
 /// Data of the start command.
 pub const START_COMMAND: [u8; 2] = [7, 0];
@@ -144,132 +146,6 @@ impl XelaCanLayout {
             data[1 + 2 * k..3 + 2 * k].copy_from_slice(&v.to_be_bytes());
         }
         CanFrame::standard_masked(self.taxel_base_id + u32::from(taxel), &data)
-    }
-}
-
-/// One assembled scan of a board.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct CanScan {
-    /// Receive time of the frame that completed the scan (session clock).
-    pub t: TimeNs,
-    /// Index of this scan among the scans the board began, from 0 (dropped scans count too).
-    pub sequence: u64,
-    /// Every taxel's `[x, y, z]`, or `None` where the board marked it invalid.
-    pub taxels: Vec<Option<RawTaxel>>,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Slot {
-    Missing,
-    Valid(RawTaxel),
-    Invalid,
-}
-
-/// Assembles the taxel frames of a board into scans.
-///
-/// # Contract
-/// - Frames of other ids are ignored.
-/// - A new scan starts when a taxel already received in the current scan
-///   arrives again, or when a frame arrives more than `max_span` before or after the
-///   current scan's first frame. So frames reordered within a scan still
-///   assemble, and the frames of two scans are never mixed (as long as the
-///   span is shorter than the scan period; half of it is a good choice).
-/// - A scan is emitted when every taxel has arrived (valid or marked
-///   invalid); a scan that is replaced before that is counted in
-///   `incomplete_scans` and never emitted. Memory is one slot per taxel.
-pub struct CanScanAssembler {
-    layout: XelaCanLayout,
-    max_span_ns: u64,
-    slots: Vec<Slot>,
-    received: usize,
-    first_t: TimeNs,
-    scans: u64,
-    counters: DecoderCounters,
-}
-
-impl CanScanAssembler {
-    /// An assembler for the board at `layout` whose scans last at most
-    /// `max_span` from first to last frame.
-    pub fn new(layout: XelaCanLayout, max_span: std::time::Duration) -> CanScanAssembler {
-        CanScanAssembler {
-            layout,
-            max_span_ns: u64::try_from(max_span.as_nanos()).unwrap_or(u64::MAX),
-            slots: vec![Slot::Missing; usize::from(layout.taxels)],
-            received: 0,
-            first_t: TimeNs::ZERO,
-            scans: 0,
-            counters: DecoderCounters::default(),
-        }
-    }
-
-    /// The span for a board scanning at `rate_hz`: half its period.
-    pub fn span_for_rate(rate_hz: f64) -> std::time::Duration {
-        std::time::Duration::from_secs_f64(0.5 / rate_hz.max(1e-3))
-    }
-
-    /// The board's layout.
-    pub fn layout(&self) -> &XelaCanLayout {
-        &self.layout
-    }
-
-    /// The counters so far.
-    pub fn counters(&self) -> DecoderCounters {
-        self.counters
-    }
-
-    /// Counts a scan the caller dropped (for example because a taxel it
-    /// needs was invalid).
-    pub fn count_unusable_scan(&mut self) {
-        self.counters.incomplete_scans += 1;
-    }
-
-    /// Feeds one frame received at `t`; returns the scan it completes.
-    pub fn push(&mut self, t: TimeNs, frame: &CanFrame) -> Option<CanScan> {
-        let taxel = usize::from(self.layout.taxel_of(frame)?);
-        let too_late = self.received > 0 && t.0.abs_diff(self.first_t.0) > self.max_span_ns;
-        if too_late || self.slots[taxel] != Slot::Missing {
-            self.counters.incomplete_scans += 1;
-            self.scans += 1;
-            self.clear();
-        }
-        if self.received == 0 {
-            self.first_t = t;
-        }
-        let data = frame.data();
-        self.counters.frames += 1;
-        self.slots[taxel] = if data.len() < 7 || data[0] >= INVALID_STATUS {
-            self.counters.invalid_samples += 1;
-            Slot::Invalid
-        } else {
-            let be = |i: usize| u16::from_be_bytes([data[i], data[i + 1]]);
-            Slot::Valid([be(1), be(3), be(5)])
-        };
-        self.received += 1;
-        if self.received < self.slots.len() {
-            return None;
-        }
-        let taxels = self
-            .slots
-            .iter()
-            .map(|s| match s {
-                Slot::Valid(v) => Some(*v),
-                _ => None,
-            })
-            .collect();
-        let scan = CanScan { t, sequence: self.scans, taxels };
-        self.scans += 1;
-        self.clear();
-        Some(scan)
-    }
-
-    /// Taxels received so far in the current (unfinished) scan.
-    pub fn pending(&self) -> usize {
-        self.received
-    }
-
-    fn clear(&mut self) {
-        self.slots.fill(Slot::Missing);
-        self.received = 0;
     }
 }
 

@@ -1,6 +1,7 @@
 //! The log format of can-utils' `candump -l` (and `log2asc`'s input), read
 //! and written without I/O and without SocketCAN, so that captured CAN
-//! traffic decodes on any machine.
+//! traffic decodes on any machine; [`plain`] reads candump's console
+//! output (`  can0  201   [8]  01 02 ...`). [`parse_any_line`] takes either.
 //!
 //! One record per line: `(SECONDS.MICROS) INTERFACE ID#DATA`, where `ID` is 3
 //! hex digits for a standard frame and 8 for an extended one, and `DATA` is 0
@@ -14,8 +15,10 @@ use thiserror::Error;
 /// One record of a candump log.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct CandumpRecord {
-    /// Reception time, microseconds since the Unix epoch (host clock).
-    pub t_us: u64,
+    /// Reception time in microseconds: since the Unix epoch (host clock)
+    /// for `candump -l` and `-t a`; since the first frame (`-t z`) or the
+    /// previous one (`-t d`) for those; `None` when the line has none.
+    pub t_us: Option<u64>,
     /// The interface it was received on (`can0`).
     pub interface: String,
     /// What the frame is.
@@ -47,9 +50,11 @@ pub struct CandumpParseError {
 }
 
 /// Error flag of a can-utils frame id (`CAN_ERR_FLAG`).
-const ERROR_FLAG: u32 = 0x2000_0000;
+pub(crate) const ERROR_FLAG: u32 = 0x2000_0000;
 
-fn bad(reason: &'static str) -> CandumpParseError {
+pub mod plain;
+
+pub(crate) fn bad(reason: &'static str) -> CandumpParseError {
     CandumpParseError { reason }
 }
 
@@ -60,14 +65,25 @@ pub fn parse_line(line: &str) -> Result<CandumpRecord, CandumpParseError> {
     let interface = fields.next().ok_or_else(|| bad("no interface"))?;
     let frame = fields.next().ok_or_else(|| bad("no frame"))?;
     let time = time.strip_prefix('(').and_then(|t| t.strip_suffix(')')).ok_or_else(|| bad("no (time)"))?;
+    let t_us = parse_seconds(time)?;
+    Ok(CandumpRecord { t_us: Some(t_us), interface: interface.to_string(), frame: parse_frame(frame)? })
+}
+
+/// Parses a line of either format: a `candump -l` record (`ID#DATA`) or a
+/// line of candump's console output.
+pub fn parse_any_line(line: &str) -> Result<CandumpRecord, CandumpParseError> {
+    if line.contains('#') { parse_line(line) } else { plain::parse_plain_line(line) }
+}
+
+/// Parses `(SECONDS.MICROS)` without its parentheses into microseconds.
+pub(crate) fn parse_seconds(time: &str) -> Result<u64, CandumpParseError> {
     let (secs, micros) = time.split_once('.').ok_or_else(|| bad("time without a fraction"))?;
     let secs: u64 = secs.parse().map_err(|_| bad("bad seconds"))?;
     if micros.len() != 6 {
         return Err(bad("time fraction is not 6 digits"));
     }
     let micros: u64 = micros.parse().map_err(|_| bad("bad microseconds"))?;
-    let t_us = secs.checked_mul(1_000_000).and_then(|s| s.checked_add(micros)).ok_or_else(|| bad("time"))?;
-    Ok(CandumpRecord { t_us, interface: interface.to_string(), frame: parse_frame(frame)? })
+    secs.checked_mul(1_000_000).and_then(|s| s.checked_add(micros)).ok_or_else(|| bad("time"))
 }
 
 fn parse_frame(text: &str) -> Result<CandumpFrame, CandumpParseError> {
@@ -111,7 +127,7 @@ mod tests {
     #[test]
     fn the_can_utils_examples_parse() {
         let r = parse_line("(1436509052.249713) vcan0 044#2A366C2BBA").unwrap();
-        assert_eq!(r.t_us, 1_436_509_052_249_713);
+        assert_eq!(r.t_us, Some(1_436_509_052_249_713));
         assert_eq!(r.interface, "vcan0");
         let data = vec![0x2A, 0x36, 0x6C, 0x2B, 0xBA];
         assert_eq!(r.frame, CandumpFrame::Data { id: 0x44, extended: false, data });

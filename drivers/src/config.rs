@@ -24,7 +24,9 @@ use serde::{Deserialize, Serialize};
 use slidetrack_core::{CameraIntrinsics, CameraPlacement, FingerReading, PerFinger};
 use thiserror::Error;
 
-use crate::can_protocol::{CanLayoutError, XelaCanLayout};
+pub use crate::can_config::{CanTactileConfig, IdCollision, SlcanTransport};
+use crate::can_layout::CanMapError;
+use crate::can_protocol::CanLayoutError;
 use crate::hand_can::{HandCanIds, HandFrameError};
 use crate::sensors::{HwSensor, SensorConfigError, default_fingers, default_sensors, validate_sensors};
 use crate::serial_protocol::MAX_TAXELS;
@@ -66,7 +68,8 @@ pub enum TactileDevice {
     Sim,
     /// uSkin-style modules streaming the serial format.
     Serial(SerialTactileConfig),
-    /// uSkin board on CAN (XELA layout).
+    /// Taxel frames on CAN (SocketCAN or an SLCAN adapter), in a
+    /// configured layout.
     Can(CanTactileConfig),
     /// XELA sensors read through XELA's `xela_server` (WebSocket JSON).
     #[serde(rename = "xela_ws")]
@@ -126,72 +129,6 @@ pub struct EmulatorConfig {
     pub corrupt_every_frames: u32,
     /// Insert a few bytes of garbage before every n-th frame (0: never).
     pub garbage_every_frames: u32,
-}
-
-/// A uSkin board on CAN.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CanTactileConfig {
-    /// SocketCAN interface (`can0`, `vcan0`).
-    pub interface: String,
-    /// Board id (the start command goes to `start_base_id | board`).
-    pub board: u8,
-    /// Base id of the start command.
-    pub start_base_id: u32,
-    /// Id of taxel 0's frames.
-    pub taxel_base_id: u32,
-    /// Taxels on the board (all modules together).
-    pub taxels: u16,
-    /// Taxels per module: taxel `t` of a sensor on module `m` is board
-    /// taxel `m * taxels_per_module + t`.
-    pub taxels_per_module: u16,
-    /// Nominal scan rate (Hz), for the layout and scan assembly.
-    pub rate_hz: f64,
-    /// Longest wait for a scan once streaming (ms).
-    pub timeout_ms: u64,
-    /// Longest wait for the first scan after the start command (ms).
-    pub startup_timeout_ms: u64,
-    /// The sensors: which modules are read, their layout and finger.
-    pub sensors: Vec<HwSensor>,
-    /// What each finger's reading is (a taxel of a sensor, or its mean).
-    pub fingers: PerFinger<FingerReading>,
-}
-
-impl Default for CanTactileConfig {
-    fn default() -> Self {
-        let layout = XelaCanLayout::default();
-        CanTactileConfig {
-            interface: "can0".into(),
-            board: layout.board,
-            start_base_id: layout.start_base_id,
-            taxel_base_id: layout.taxel_base_id,
-            taxels: 48,
-            taxels_per_module: 16,
-            rate_hz: 100.0,
-            timeout_ms: 50,
-            startup_timeout_ms: 2000,
-            sensors: default_sensors(4, 4),
-            fingers: default_fingers(),
-        }
-    }
-}
-
-impl CanTactileConfig {
-    /// The board's CAN layout.
-    pub fn layout(&self) -> XelaCanLayout {
-        XelaCanLayout {
-            board: self.board,
-            start_base_id: self.start_base_id,
-            taxel_base_id: self.taxel_base_id,
-            taxels: self.taxels,
-        }
-    }
-
-    /// The board taxels of a scan: every taxel of every sensor, in order.
-    pub fn board_taxels(&self) -> Vec<usize> {
-        let per = usize::from(self.taxels_per_module);
-        self.sensors.iter().flat_map(|s| (0..s.taxels()).map(move |t| s.module as usize * per + t)).collect()
-    }
 }
 
 /// The camera that sees the marker.
@@ -367,6 +304,15 @@ pub enum HwConfigError {
     /// Bad CAN ids of the tactile board.
     #[error("hw.tactile: {0}")]
     CanLayout(#[from] CanLayoutError),
+    /// A CAN layout that does not describe the sensors.
+    #[error("{0}")]
+    CanMap(#[from] CanMapError),
+    /// Tactile and hand ids on one bus.
+    #[error("{0}")]
+    IdCollision(#[from] IdCollision),
+    /// Another CAN setting out of range.
+    #[error("{0}")]
+    Can(String),
     /// Bad CAN ids of the hand.
     #[error("hw.hand: {0}")]
     HandIds(#[from] HandFrameError),
@@ -401,14 +347,26 @@ impl HwRigConfig {
                 }
             }
             TactileDevice::Can(c) => {
-                c.layout().validate()?;
+                if c.map.is_empty() {
+                    c.legacy_layout().validate()?;
+                }
+                c.layout()?;
+                if let Some(s) = &c.slcan {
+                    crate::slcan::bitrate_code(s.bitrate)
+                        .map_err(|e| HwConfigError::Can(format!("hw.tactile.slcan.bitrate: {e}")))?;
+                    if let Some(t) = s.unplug_after_s {
+                        check("tactile.slcan.unplug_after_s", t, t.is_finite() && t >= 0.0, ">= 0 s")?;
+                    }
+                }
                 check("tactile.rate_hz", c.rate_hz, c.rate_hz.is_finite() && c.rate_hz > 0.0, "> 0 Hz")?;
                 check("tactile.timeout_ms", c.timeout_ms as f64, c.timeout_ms > 0, "> 0 ms")?;
                 let per = f64::from(c.taxels_per_module);
                 check("tactile.taxels_per_module", per, c.taxels_per_module > 0, ">= 1")?;
-                validate_sensors(&c.sensors, &c.fingers, usize::from(c.taxels_per_module))?;
+                // With an explicit map, modules and taxels_per_module are not used.
+                let per_module = if c.map.is_empty() { usize::from(c.taxels_per_module) } else { usize::MAX };
+                validate_sensors(&c.sensors, &c.fingers, per_module)?;
                 let per = usize::from(c.taxels_per_module);
-                for x in &c.sensors {
+                for x in c.sensors.iter().filter(|_| c.map.is_empty()) {
                     let end = x.module as usize * per + x.taxels();
                     if end > usize::from(c.taxels) {
                         let (name, module, taxels) = (x.name.clone(), x.module, c.taxels);
@@ -446,6 +404,11 @@ impl HwRigConfig {
             check("hand.max_volts", h.max_volts, h.max_volts.is_finite() && h.max_volts > 0.0, "> 0 V")?;
             let hb = h.heartbeat_ms as f64;
             check("hand.heartbeat_ms", hb, (1..=1000).contains(&h.heartbeat_ms), "1..=1000 ms")?;
+            if let TactileDevice::Can(c) = &self.tactile
+                && let Some(collision) = c.collision_with_hand(&h.interface, &h.ids())
+            {
+                return Err(collision.into());
+            }
         }
         Ok(())
     }
@@ -455,7 +418,7 @@ impl HwRigConfig {
     pub fn tactile_rate_hz(&self, sim_rate_hz: f64) -> f64 {
         match &self.tactile {
             TactileDevice::Serial(s) if s.port != EMULATED_PORT => s.rate_hz,
-            TactileDevice::Can(c) => c.rate_hz,
+            TactileDevice::Can(c) if c.slcan.as_ref().is_none_or(|s| s.port != EMULATED_PORT) => c.rate_hz,
             TactileDevice::XelaWs(x) if x.url != EMULATED_URL => x.rate_hz,
             _ => sim_rate_hz,
         }

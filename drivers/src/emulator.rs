@@ -15,6 +15,7 @@ use slidetrack_core::{
 };
 
 use crate::config::{EMULATED_PORT, EmulatorConfig, SerialTactileConfig};
+use crate::sensors::HwSensor;
 use crate::serial::SerialTactile;
 use crate::serial_protocol::{FrameEncodeError, MAX_TAXELS, ModuleFrame, SYNC};
 
@@ -124,7 +125,7 @@ impl EmulatedSerialTactile {
         rate_hz: f64,
         clock: Arc<dyn Clock>,
     ) -> Result<EmulatedSerialTactile, DeviceError> {
-        check_emulated_sensors(&source.info(), cfg)?;
+        check_emulated_sensors(&source.info(), &cfg.sensors)?;
         let port = EmulatedPort::open()?;
         let tactile = SerialTactile::open(port.path(), cfg, rate_hz, clock)?;
         let modules = cfg.sensors.iter().map(|s| s.module).collect();
@@ -151,10 +152,10 @@ impl TactileSource for EmulatedSerialTactile {
 
 /// The configured sensors must be the simulated ones, taxel for taxel: the
 /// emulator sends what the simulator measures, nothing invented.
-fn check_emulated_sensors(sim: &TactileInfo, cfg: &SerialTactileConfig) -> Result<(), DeviceError> {
+pub(crate) fn check_emulated_sensors(sim: &TactileInfo, sensors: &[HwSensor]) -> Result<(), DeviceError> {
     let sim_sensors = &sim.layout.sensors;
-    let mismatch = sim_sensors.len() != cfg.sensors.len()
-        || sim_sensors.iter().zip(&cfg.sensors).any(|(a, b)| a.taxels() != b.taxels());
+    let mismatch = sim_sensors.len() != sensors.len()
+        || sim_sensors.iter().zip(sensors).any(|(a, b)| a.taxels() != b.taxels());
     if !mismatch {
         return Ok(());
     }
@@ -162,7 +163,7 @@ fn check_emulated_sensors(sim: &TactileInfo, cfg: &SerialTactileConfig) -> Resul
         v.iter().map(|(n, r, c)| format!("{n} {r}x{c}")).collect::<Vec<_>>().join(", ")
     };
     let sim = describe(sim_sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect());
-    let hw = describe(cfg.sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect());
+    let hw = describe(sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect());
     Err(DeviceError::new(
         ErrorKind::Other,
         EMULATED_PORT,

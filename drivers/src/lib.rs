@@ -6,19 +6,27 @@
 //!
 //! Protocols are decoded without I/O ([`serial_protocol`], [`can_protocol`],
 //! [`hand_can`]: bytes or frames in, frames or typed errors out, counters
-//! kept); the backends ([`serial`], [`can`], [`can_hand`], [`v4l2`]) only
+//! kept; [`can_layout`] for any CAN tactile layout); the backends ([`serial`], [`can`],
+//! [`can_tactile`], [`slcan_bus`], [`can_hand`], [`v4l2`]) only
 //! move bytes between a device and a decoder and map failures onto
 //! [`ErrorKind`](slidetrack_core::ErrorKind)s. The wire formats are documented in `docs/protocols.md`.
 //! [`emulator`] streams the simulated rig's tactile data as real serial
-//! bytes through a pseudo-terminal; [`offline`] decodes captured traffic.
+//! bytes through a pseudo-terminal, [`can_emulator`] as SLCAN lines of an
+//! emulated USB-CAN adapter; [`offline`] decodes captured traffic.
 //! [`xela_ws`] reads XELA's `xela_server` (WebSocket JSON): its decoder, a
 //! blocking client and a local emulator.
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod can;
+pub mod can_config;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod can_emulator;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod can_hand;
+pub mod can_layout;
 pub mod can_protocol;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod can_tactile;
 pub mod candump;
 pub mod config;
 #[cfg(all(feature = "devices", target_os = "linux"))]
@@ -43,9 +51,13 @@ pub mod v4l2;
 pub mod xela_ws;
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
-pub use can::{CanBus, CanTactile, SocketCanBus};
+pub use can::{CanBus, SocketCanBus};
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use can_emulator::EmulatedSlcanTactile;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use can_hand::CanHand;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use can_tactile::CanTactile;
 pub use config::HwRigConfig;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use emulator::{EmulatedPort, EmulatedSerialTactile, SerialEmulator};

@@ -6,27 +6,37 @@ use std::io::{BufRead, BufReader, Read};
 
 use slidetrack_core::{DecoderCounters, TactileSample, TimeNs};
 
-use crate::can_protocol::{CanFrame, CanScanAssembler};
+use crate::can_layout::{CanLayoutDecoder, CanMapError};
+use crate::can_protocol::CanFrame;
 use crate::candump::{self, CandumpFrame, CandumpRecord};
 use crate::config::{CanTactileConfig, SerialTactileConfig};
 use crate::scan::{ModuleScanAssembler, SequenceUnwrapper};
-use crate::sensors::{module_taxels, pick_board_taxels};
+use crate::sensors::module_taxels;
 use crate::serial_protocol::{SerialDecoder, SerialEvent};
 
 /// Decodes a `candump -l` log (`(1700000000.123456) can0 710#00123456789ABC`)
-/// into the scans of one uSkin board.
+/// or candump's console output (`  can0  710   [7]  00 12 ...`, with or
+/// without `-t a`/`-t z`/`-t d` times) into the scans of the configured
+/// layout.
 ///
 /// # Contract
 /// - Sample times are the log's timestamps relative to its first frame
-///   (session clock starting at 0), made non-decreasing.
+///   (session clock starting at 0), made non-decreasing; with
+///   [`with_deltas`](Self::with_deltas) each time is the gap since the
+///   previous frame (`candump -t d`). Lines without a time take the
+///   previous frame's time plus `1 / (rate_hz * taxels)`: log order, spaced
+///   as if the board ran at `rate_hz` (nothing in the log says otherwise).
 /// - Lines that do not parse are counted ([`CanLogDecoder::bad_lines`]) and
 ///   skipped; frames of other ids and interfaces are ignored.
 pub struct CanLogDecoder<R: Read> {
     reader: BufReader<R>,
     line: String,
     interface: Option<String>,
-    assembler: CanScanAssembler,
-    board_taxels: Vec<usize>,
+    decoder: CanLayoutDecoder,
+    /// Time step of a frame without a time (ns).
+    untimed_step_ns: u64,
+    deltas: bool,
+    untimed: u64,
     first_us: Option<u64>,
     last_t: TimeNs,
     lines: u64,
@@ -37,24 +47,44 @@ pub struct CanLogDecoder<R: Read> {
 impl<R: Read> CanLogDecoder<R> {
     /// A decoder of the log in `input` for the board of `cfg`; frames of
     /// interfaces other than `interface` are skipped when it is given.
-    pub fn new(input: R, cfg: &CanTactileConfig, interface: Option<String>) -> CanLogDecoder<R> {
-        CanLogDecoder {
+    pub fn new(
+        input: R,
+        cfg: &CanTactileConfig,
+        interface: Option<String>,
+    ) -> Result<CanLogDecoder<R>, CanMapError> {
+        let layout = cfg.layout()?;
+        let per_scan = layout.slots.len().max(1) as f64;
+        let rate_hz = if cfg.rate_hz.is_finite() && cfg.rate_hz > 0.0 { cfg.rate_hz } else { 100.0 };
+        Ok(CanLogDecoder {
             reader: BufReader::new(input),
             line: String::new(),
             interface,
-            assembler: CanScanAssembler::new(cfg.layout(), CanScanAssembler::span_for_rate(cfg.rate_hz)),
-            board_taxels: cfg.board_taxels(),
+            decoder: CanLayoutDecoder::new(layout, cfg.rate_hz),
+            untimed_step_ns: (1e9 / (rate_hz * per_scan)) as u64,
+            deltas: false,
+            untimed: 0,
             first_us: None,
             last_t: TimeNs::ZERO,
             lines: 0,
             bad_lines: 0,
             first_error: None,
-        }
+        })
+    }
+
+    /// Reads the times as gaps since the previous frame (`candump -t d`).
+    pub fn with_deltas(mut self, deltas: bool) -> CanLogDecoder<R> {
+        self.deltas = deltas;
+        self
     }
 
     /// The decoder counters so far.
     pub fn counters(&self) -> DecoderCounters {
-        self.assembler.counters()
+        self.decoder.counters()
+    }
+
+    /// Frames that had no time in the log.
+    pub fn untimed_frames(&self) -> u64 {
+        self.untimed
     }
 
     /// Lines read so far.
@@ -78,8 +108,17 @@ impl<R: Read> CanLogDecoder<R> {
         }
         let CandumpFrame::Data { id, extended, data } = record.frame else { return None };
         let frame = CanFrame::new(id, extended, &data)?;
-        let first = *self.first_us.get_or_insert(record.t_us);
-        let t = TimeNs(record.t_us.saturating_sub(first).saturating_mul(1000)).max(self.last_t);
+        let t = match record.t_us {
+            None => {
+                self.untimed += 1;
+                TimeNs(self.last_t.0.saturating_add(self.untimed_step_ns))
+            }
+            Some(us) if self.deltas => TimeNs(self.last_t.0.saturating_add(us.saturating_mul(1000))),
+            Some(us) => {
+                let first = *self.first_us.get_or_insert(us);
+                TimeNs(us.saturating_sub(first).saturating_mul(1000)).max(self.last_t)
+            }
+        };
         self.last_t = t;
         Some((t, frame))
     }
@@ -111,7 +150,7 @@ impl<R: Read> Iterator for CanLogDecoder<R> {
             if text.trim().is_empty() {
                 continue;
             }
-            let record = match candump::parse_line(text) {
+            let record = match candump::parse_any_line(text) {
                 Ok(r) => r,
                 Err(e) => {
                     self.bad_lines += 1;
@@ -120,10 +159,8 @@ impl<R: Read> Iterator for CanLogDecoder<R> {
                 }
             };
             let Some((t, frame)) = self.frame(record) else { continue };
-            let Some(scan) = self.assembler.push(t, &frame) else { continue };
-            match pick_board_taxels(&scan.taxels, &self.board_taxels) {
-                Some(raw) => return Some(TactileSample::new(scan.t, scan.sequence, raw)),
-                None => self.assembler.count_unusable_scan(),
+            if let Some(scan) = self.decoder.push(t, &frame) {
+                return Some(TactileSample::new(scan.t, scan.sequence, scan.taxels));
             }
         }
     }

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use serialport::{ClearBuffer, FlowControl, SerialPort, TTYPort};
 use slidetrack_core::{DeviceError, ErrorKind};
 
-use crate::can::CanBus;
+use crate::can::{BusEvent, CanBus};
 use crate::can_protocol::CanFrame;
 use crate::io_error_kind;
 use crate::slcan::{SlcanClock, SlcanCommand, SlcanConfig, SlcanCounters, SlcanDecoder, SlcanEvent};
@@ -283,6 +283,15 @@ impl CanBus for SlcanBus {
 
     fn recv(&self, timeout: Duration) -> io::Result<Option<CanFrame>> {
         Ok(self.recv_timestamped(timeout)?.map(|r| r.frame))
+    }
+
+    /// The frame's age counts from when the host read the bytes that
+    /// completed it (the adapter's millisecond timestamps are kept in
+    /// [`recv_timestamped`](Self::recv_timestamped), not used for the age).
+    fn recv_event(&self, timeout: Duration) -> io::Result<Option<BusEvent>> {
+        Ok(self
+            .recv_timestamped(timeout)?
+            .map(|r| BusEvent::Frame { frame: r.frame, age: Some(r.received_at.elapsed()) }))
     }
 
     fn name(&self) -> &str {

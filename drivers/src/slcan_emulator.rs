@@ -47,6 +47,8 @@ pub struct SlcanEmulatorConfig {
     /// The channel is already open (at 1 Mbit/s), as an adapter that a
     /// previous program left open.
     pub open_at_start: bool,
+    /// Unplug by itself this long after it first streamed frames.
+    pub unplug_after: Option<Duration>,
 }
 
 impl Default for SlcanEmulatorConfig {
@@ -57,6 +59,7 @@ impl Default for SlcanEmulatorConfig {
             transmit_ack: TransmitAck::Lawicel,
             clock_start_ms: 0,
             open_at_start: false,
+            unplug_after: None,
         }
     }
 }
@@ -124,6 +127,7 @@ impl SlcanEmulator {
             line: Vec::with_capacity(MAX_LINE),
             overlong: false,
             opened_at: Instant::now(),
+            first_frames: None,
         };
         let thread = std::thread::Builder::new()
             .name("slcan-emulator".into())
@@ -175,6 +179,8 @@ struct Worker {
     overlong: bool,
     /// When the channel last opened: the timestamps count from there.
     opened_at: Instant,
+    /// When frames were first streamed.
+    first_frames: Option<Instant>,
 }
 
 /// Longest wait for a command before looking at the stop flags again.
@@ -187,7 +193,11 @@ impl Worker {
         let mut buf = [0u8; 1024];
         let mut next_batch = Instant::now();
         while !self.shared.stop.load(Ordering::SeqCst) {
-            if self.shared.unplug.load(Ordering::SeqCst) {
+            let due = self
+                .first_frames
+                .zip(self.config.unplug_after)
+                .is_some_and(|(t, after)| t.elapsed() >= after);
+            if due || self.shared.unplug.load(Ordering::SeqCst) {
                 tracing::info!("slcan emulator: unplugging");
                 return; // dropping the pseudo-terminal hangs up the device side
             }
@@ -324,6 +334,9 @@ impl Worker {
             encode_frame_line(frame, false, timestamps.then_some(now_ms), &mut bytes);
         }
         lock(&self.shared.record).frames_streamed += frames.len() as u64;
+        if !frames.is_empty() {
+            self.first_frames.get_or_insert_with(Instant::now);
+        }
         self.write(&bytes)
     }
 

@@ -1,18 +1,29 @@
-//! Arbitrary CAN frames (id, length, data, time step) into the scan
-//! assembler: no panic, and every scan it emits is whole.
+//! Arbitrary CAN frames (id, length, data, time step) into the layout
+//! decoder, in the legacy layout and a map, in both scan modes: no panic,
+//! and every scan it emits is whole.
 
 #![no_main]
 
-use std::time::Duration;
-
 use libfuzzer_sys::fuzz_target;
 use slidetrack_core::TimeNs;
-use slidetrack_drivers::can_protocol::{CanFrame, CanScanAssembler, XelaCanLayout};
+use slidetrack_drivers::can_layout::{CanLayoutDecoder, MapEntry, ScanMode};
+use slidetrack_drivers::can_protocol::CanFrame;
+use slidetrack_drivers::config::CanTactileConfig;
 
 fuzz_target!(|data: &[u8]| {
-    let Some((&taxels, mut rest)) = data.split_first() else { return };
-    let layout = XelaCanLayout { taxels: u16::from(taxels % 64).max(1), ..XelaCanLayout::default() };
-    let mut assembler = CanScanAssembler::new(layout, Duration::from_millis(5));
+    let Some((&mode, mut rest)) = data.split_first() else { return };
+    let mut cfg = CanTactileConfig::default();
+    if mode & 1 == 1 {
+        cfg.map = ["thumb", "index", "middle"]
+            .iter()
+            .enumerate()
+            .map(|(k, s)| MapEntry { sensor: (*s).into(), first_id: Some(0x700 + 0x20 * k as u32), ..MapEntry::default() })
+            .collect();
+    }
+    cfg.scan_mode = if mode & 2 == 2 { ScanMode::Latest } else { ScanMode::Complete };
+    let Ok(layout) = cfg.layout() else { return };
+    let n = layout.slots.len();
+    let mut decoder = CanLayoutDecoder::new(layout, cfg.rate_hz);
     let mut t = 0u64;
     // Each frame: id offset, length, time step, then up to 8 data bytes.
     while let [id, len, step, tail @ ..] = rest {
@@ -21,9 +32,9 @@ fuzz_target!(|data: &[u8]| {
         rest = next;
         t += u64::from(*step) * 100_000;
         let Some(frame) = CanFrame::standard(0x700 + u32::from(*id % 0x80), payload) else { continue };
-        if let Some(scan) = assembler.push(TimeNs(t), &frame) {
-            assert_eq!(scan.taxels.len(), usize::from(layout.taxels));
+        for scan in decoder.push(TimeNs(t), &frame).into_iter().chain(decoder.poll(TimeNs(t))) {
+            assert_eq!(scan.taxels.len(), n);
         }
-        assert!(assembler.pending() < usize::from(layout.taxels));
+        assert!(decoder.pending() <= n);
     }
 });

@@ -123,7 +123,10 @@ pub struct DevicesArgs {
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("capture").required(true).args(["can_log", "serial_capture"])))]
 pub struct DecodeArgs {
-    /// A can-utils `candump -l` log of a uSkin board (XELA layout).
+    /// CAN traffic captured with can-utils: a `candump -l` log, or candump's
+    /// console output (`candump can0 > dump.txt`, with or without `-t a`,
+    /// `-t z` or `-t d` times), decoded in the configured layout (`--config`;
+    /// the legacy layout by default).
     #[arg(long, value_name = "FILE")]
     pub can_log: Option<PathBuf>,
     /// Raw bytes captured from a uSkin serial port (e.g. `cat /dev/ttyACM0 > capture.bin`).
@@ -146,6 +149,9 @@ pub struct DecodeArgs {
     /// Only frames of this interface of the CAN log (all by default).
     #[arg(long)]
     pub interface: Option<String>,
+    /// The times in the CAN log are gaps since the previous frame (`candump -t d`).
+    #[arg(long)]
+    pub time_deltas: bool,
     /// Replace the output file if it exists.
     #[arg(long)]
     pub overwrite: bool,

@@ -1,5 +1,5 @@
 //! `slidetrack decode`: captured tactile traffic (a can-utils `candump -l`
-//! log, or raw serial bytes) turned into a session with the `/tactile/raw`
+//! log or candump's console output, or raw serial bytes) turned into a session with the `/tactile/raw`
 //! and `/tactile/decoder` channels of a live recording.
 
 use std::collections::BTreeMap;
@@ -53,7 +53,9 @@ pub fn run(args: &DecodeArgs, quiet: bool) -> Result<()> {
             cfg.taxels = t;
         }
         check(TactileDevice::Can(cfg.clone()))?;
-        let mut decoder = CanLogDecoder::new(reader, &cfg, args.interface.clone());
+        let mut decoder = CanLogDecoder::new(reader, &cfg, args.interface.clone())
+            .context("the decoder configuration")?
+            .with_deltas(args.time_deltas);
         let info = tactile_info(&name, cfg.rate_hz, &cfg.sensors, &cfg.fingers);
         let mut out = Output::create(args, &info, &TactileDevice::Can(cfg.clone()))?;
         while let Some(sample) = decoder.next() {
@@ -63,7 +65,14 @@ pub fn run(args: &DecodeArgs, quiet: bool) -> Result<()> {
             tracing::warn!("{name} line {line}: {why} ({} lines skipped)", decoder.bad_lines());
         }
         let extra = format!("{} lines, {} unreadable", decoder.lines(), decoder.bad_lines());
-        out.finish(kind, &name, "capture timestamps", &decoder.counters(), &extra)?
+        let timing = if decoder.untimed_frames() > 0 {
+            "log order: frames without a time spaced as if at the configured rate_hz"
+        } else if args.time_deltas {
+            "capture timestamps (gaps since the previous frame)"
+        } else {
+            "capture timestamps"
+        };
+        out.finish(kind, &name, timing, &decoder.counters(), &extra)?
     } else {
         let mut cfg = match configured {
             Some(TactileDevice::Serial(s)) => s,

@@ -5,12 +5,19 @@ use std::sync::Mutex;
 
 use slidetrack_core::{HandActuator, WallClock};
 
+use super::bus_errors::BusProblem;
 use super::*;
+use crate::can_tactile::CanTactile;
+use crate::config::CanTactileConfig;
+use std::sync::Arc;
+
 use crate::can_hand::CanHand;
+use crate::can_layout::{PayloadFormat, ValidityByte};
 use crate::can_protocol::XelaCanLayout;
 use crate::config::CanHandConfig;
 use crate::hand_can::{HandMessage, HandState};
 use crate::sensors::HwSensor;
+use slidetrack_core::{Clock, ErrorKind, TactileSource};
 use slidetrack_core::{FingerReading, PerFinger};
 
 /// A bus in memory: records what is sent, serves queued frames, and can
@@ -83,6 +90,11 @@ fn tactile_cfg() -> CanTactileConfig {
         },
         timeout_ms: 30,
         startup_timeout_ms: 30,
+        // The legacy drivers' status byte, checked only because it is configured.
+        payload: PayloadFormat {
+            valid: Some(ValidityByte { byte: 0, below: 250 }),
+            ..PayloadFormat::default()
+        },
         ..CanTactileConfig::default()
     }
 }
@@ -95,11 +107,11 @@ fn scan_frames(l: &XelaCanLayout, scan: u16, invalid: Option<u16>) -> Vec<CanFra
 fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
     let bus = Arc::new(MemoryBus::default());
     let cfg = tactile_cfg();
-    let l = cfg.layout();
+    let l = cfg.legacy_layout();
     for s in 0..3 {
         bus.queue(scan_frames(&l, s, if s == 1 { Some(25) } else { None }));
     }
-    let mut tactile = CanTactile::with_bus(bus.clone(), &cfg, Arc::new(WallClock::start())).unwrap();
+    let mut tactile = CanTactile::with_bus(bus.clone(), &cfg, 100.0, Arc::new(WallClock::start())).unwrap();
     assert_eq!(bus.sent(), vec![l.start_command()]);
     let a = tactile.read().unwrap();
     let board: Vec<u16> = (0..4).chain(16..26).collect();
@@ -109,7 +121,7 @@ fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
     let b = tactile.read().unwrap();
     assert_eq!((b.sequence, b.raw[0]), (2, [2, 0, 5]));
     let c = tactile.counters().unwrap();
-    assert_eq!((c.frames, c.invalid_samples, c.incomplete_scans), (96, 1, 1));
+    assert_eq!((c.frames, c.invalid_samples, c.incomplete_scans), (42, 1, 1), "only mapped ids count");
     let info = tactile.info();
     assert_eq!((info.layout.taxel_count(), info.fingers), (14, cfg.fingers.clone()));
     let e = tactile.read().unwrap_err();
@@ -123,10 +135,10 @@ fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
 #[test]
 fn a_silent_board_times_out_with_the_ids_it_waited_for() {
     let bus = Arc::new(MemoryBus::default());
-    let mut tactile = CanTactile::with_bus(bus, &tactile_cfg(), Arc::new(WallClock::start())).unwrap();
+    let mut tactile = CanTactile::with_bus(bus, &tactile_cfg(), 100.0, Arc::new(WallClock::start())).unwrap();
     let e = tactile.read().unwrap_err();
     assert_eq!(e.kind, ErrorKind::Timeout);
-    assert!(e.detail.contains("0x710..=0x72F"), "{e}");
+    assert!(e.detail.contains("first id 0x710, 14 ids"), "{e}");
 }
 
 fn hand_cfg() -> CanHandConfig {
@@ -187,9 +199,9 @@ fn the_tactile_board_and_the_hand_work_on_vcan() {
     let mut tactile = CanTactile::open(&cfg, Arc::new(WallClock::start())).unwrap();
     // The board's side: wait for the start command, then stream three scans.
     let start = board.recv(Duration::from_secs(1)).unwrap().expect("the start command");
-    assert_eq!(start, cfg.layout().start_command());
+    assert_eq!(start, cfg.legacy_layout().start_command());
     for s in 0..3 {
-        for f in scan_frames(&cfg.layout(), s, None) {
+        for f in scan_frames(&cfg.legacy_layout(), s, None) {
             board.send(&f).unwrap();
         }
     }
@@ -204,4 +216,113 @@ fn the_tactile_board_and_the_hand_work_on_vcan() {
         matches!(ids.decode(&f), Ok(Some(HandMessage::Setpoint { .. }))).then_some(f)
     });
     assert!(got.is_some(), "the set-point crossed the bus");
+}
+
+/// A bus that reports the given problems, then stays silent.
+struct ProblemBus(Mutex<VecDeque<BusProblem>>);
+
+impl CanBus for ProblemBus {
+    fn send(&self, _: &CanFrame) -> io::Result<()> {
+        Ok(())
+    }
+    fn recv(&self, _: Duration) -> io::Result<Option<CanFrame>> {
+        Ok(None)
+    }
+    fn name(&self) -> &str {
+        "err0"
+    }
+    fn recv_event(&self, timeout: Duration) -> io::Result<Option<BusEvent>> {
+        if let Some(p) = self.0.lock().unwrap().pop_front() {
+            return Ok(Some(BusEvent::Problem(p)));
+        }
+        std::thread::sleep(timeout.min(Duration::from_millis(2)));
+        Ok(None)
+    }
+}
+
+#[test]
+fn bus_problems_are_named_and_bus_off_ends_the_source() {
+    let problems = |p: &[BusProblem]| Arc::new(ProblemBus(Mutex::new(p.iter().copied().collect())));
+    let clock = || Arc::new(WallClock::start());
+    let bus = problems(&[BusProblem::NoAck, BusProblem::NoAck]);
+    let mut tactile = CanTactile::with_bus(bus, &tactile_cfg(), 100.0, clock()).unwrap();
+    let e = tactile.read().unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Timeout);
+    assert!(
+        e.detail.ends_with("last of 2 bus problems: no ACK: is another node on the bus at the same bitrate?"),
+        "{e}"
+    );
+
+    let bus = problems(&[BusProblem::ErrorPassive, BusProblem::BusOff]);
+    let mut tactile = CanTactile::with_bus(bus, &tactile_cfg(), 100.0, clock()).unwrap();
+    let e = tactile.read().unwrap_err();
+    assert_eq!(e.kind, ErrorKind::Disconnected);
+    assert!(e.to_string().contains("err0") && e.detail.starts_with("bus-off"), "{e}");
+    assert_eq!(tactile.read().unwrap_err().detail, e.detail, "it sticks");
+}
+
+#[test]
+fn frames_are_stamped_with_their_age_on_the_session_clock() {
+    struct AgedBus(Mutex<Option<CanFrame>>);
+    impl CanBus for AgedBus {
+        fn send(&self, _: &CanFrame) -> io::Result<()> {
+            Ok(())
+        }
+        fn recv(&self, _: Duration) -> io::Result<Option<CanFrame>> {
+            Ok(None)
+        }
+        fn name(&self) -> &str {
+            "aged0"
+        }
+        fn recv_event(&self, _: Duration) -> io::Result<Option<BusEvent>> {
+            Ok(self
+                .0
+                .lock()
+                .unwrap()
+                .take()
+                .map(|frame| BusEvent::Frame { frame, age: Some(Duration::from_millis(30)) }))
+        }
+    }
+    let mut cfg = tactile_cfg();
+    cfg.sensors = vec![sensor("one", 0, 1, 1)];
+    cfg.fingers = PerFinger::from_fn(|_| FingerReading::taxel("one", 0));
+    let frame = cfg.legacy_layout().taxel_frame(0, [1, 2, 3], true);
+    let clock = Arc::new(slidetrack_core::SimClock::new());
+    clock.sleep_until(slidetrack_core::TimeNs(1_000_000_000));
+    let mut tactile =
+        CanTactile::with_bus(Arc::new(AgedBus(Mutex::new(Some(frame)))), &cfg, 100.0, clock).unwrap();
+    let s = tactile.read().unwrap();
+    assert_eq!(s.t, slidetrack_core::TimeNs(970_000_000), "received 30 ms before it was read");
+}
+
+#[test]
+fn over_an_slcan_adapter_the_start_and_stop_frames_are_sent() {
+    use crate::slcan::SlcanConfig;
+    use crate::slcan_bus::SlcanBus;
+    use crate::slcan_emulator::{SlcanEmulator, SlcanEmulatorConfig};
+    let mut cfg = tactile_cfg();
+    cfg.start = Some(crate::can_layout::CommandFrame { id: 0x100, extended: false, data: vec![1] });
+    cfg.stop = Some(crate::can_layout::CommandFrame { id: 0x100, extended: false, data: vec![0] });
+    let layout = cfg.layout().unwrap();
+    let n = layout.slots.len();
+    let mut scan = 0u16;
+    let source = Box::new(move || {
+        scan += 1;
+        Some(layout.encode_scan(&vec![[scan, 7, 9]; n]))
+    });
+    let emulator = SlcanEmulator::start(source, SlcanEmulatorConfig::default()).unwrap();
+    let adapter = SlcanConfig { reply_timeout_ms: 2000, ..SlcanConfig::default() };
+    let bus = Arc::new(SlcanBus::open(emulator.path(), &adapter).unwrap());
+    cfg.startup_timeout_ms = 2000;
+    let mut tactile = CanTactile::with_bus(bus, &cfg, 100.0, Arc::new(WallClock::start())).unwrap();
+    let a = tactile.read().unwrap();
+    let b = tactile.read().unwrap();
+    assert_eq!(a.raw.len(), 14);
+    assert!(b.raw[0][0] > a.raw[0][0] && a.raw.iter().all(|v| v[1..] == [7, 9]), "{a:?} {b:?}");
+    drop(tactile);
+    std::thread::sleep(Duration::from_millis(50));
+    let sent: Vec<(u32, Vec<u8>)> =
+        emulator.transmitted().iter().map(|f| (f.id, f.data().to_vec())).collect();
+    assert_eq!(sent, [(0x100, vec![1]), (0x100, vec![0])], "start, then stop on drop");
+    assert_eq!(emulator.record().commands.last().map(String::as_str), Some("C"), "the channel closed");
 }

@@ -1,6 +1,7 @@
 //! Parsing and validating the `[hw]` table.
 
 use super::*;
+use crate::can_protocol::CanFrame;
 
 fn parse(text: &str) -> Result<HwRigConfig, slidetrack_core::ConfigError> {
     slidetrack_core::parse_toml(text, "rig.toml")
@@ -60,8 +61,11 @@ setpoint_id = 0x310
     .unwrap();
     cfg.validate().unwrap();
     let TactileDevice::Can(c) = &cfg.tactile else { panic!("can") };
-    let board: Vec<usize> = (0..16).chain(16..32).chain(32..34).collect();
-    assert_eq!((c.board, c.taxel_base_id, c.board_taxels()), (2, 0x710, board));
+    let ids: Vec<u32> = (0x710..0x712 + 32).collect();
+    let layout = c.layout().unwrap();
+    assert_eq!(layout.slots.iter().map(|((id, _), _)| *id).collect::<Vec<_>>(), ids);
+    assert_eq!(c.board, 2);
+    assert_eq!(layout.start[0].0, CanFrame::standard(0x202, &[7, 0]).unwrap(), "the legacy start command");
     let HandDevice::Can(h) = &cfg.hand else { panic!("hand") };
     assert_eq!((h.setpoint_id, h.heartbeat_id), (0x310, 0x301));
     let text = toml::to_string(&cfg).unwrap();

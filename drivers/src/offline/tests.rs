@@ -44,7 +44,7 @@ fn log_lines(scans: u64) -> Vec<String> {
 
 fn decode_log(lines: &[String]) -> (Vec<TactileSample>, DecoderCounters, u64) {
     let text = lines.join("\n") + "\n";
-    let mut d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None);
+    let mut d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None).unwrap();
     let samples: Vec<_> = d.by_ref().collect();
     (samples, d.counters(), d.bad_lines())
 }
@@ -100,9 +100,9 @@ fn other_interfaces_are_skipped_when_one_is_named() {
         *l = l.replace(" can0 ", " can1 ");
     }
     let text = lines.join("\n");
-    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), Some("can0".into()));
+    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), Some("can0".into())).unwrap();
     assert_eq!(d.count(), 1);
-    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None);
+    let d = CanLogDecoder::new(text.as_bytes(), &can_cfg(), None).unwrap();
     assert_eq!(d.count(), 3);
 }
 
@@ -143,13 +143,18 @@ mod arbitrary {
 
     use super::*;
 
-    /// A line of a log: a plausible frame (maybe of the board), or junk bytes.
+    /// A line of a log: a plausible frame (maybe of the board) as
+    /// `candump -l` or candump's console output prints it, or junk bytes.
     fn arb_line() -> impl Strategy<Value = Vec<u8>> {
         prop_oneof![
             3 => (0x700u32..0x720, proptest::collection::vec(any::<u8>(), 0..=8), 0u64..20_000_000)
                 .prop_map(|(id, data, t_us)| {
                     let frame = CanFrame::standard(id, &data).expect("a standard id and <= 8 bytes");
                     candump_line(1_700_000_000_000_000 + t_us, "can0", &frame).into_bytes()
+                }),
+            2 => (0x700u32..0x720, proptest::collection::vec(any::<u8>(), 0..=8), proptest::option::of(0u64..20_000_000))
+                .prop_map(|(id, data, t_us)| {
+                    crate::candump::plain::format_plain_line(t_us, "can0", id, false, &data).into_bytes()
                 }),
             1 => proptest::collection::vec(any::<u8>(), 0..120),
         ]
@@ -174,7 +179,7 @@ mod arbitrary {
                     text[k] = byte;
                 }
             }
-            let mut d = CanLogDecoder::new(text.as_slice(), &can_cfg(), None);
+            let mut d = CanLogDecoder::new(text.as_slice(), &can_cfg(), None).unwrap();
             let mut last = TimeNs::ZERO;
             let mut n = 0u64;
             for sample in d.by_ref() {
@@ -208,6 +213,39 @@ mod arbitrary {
             prop_assert_eq!(d.bytes(), bytes.len() as u64);
             prop_assert!(d.trailing_bytes() <= crate::serial_protocol::DECODER_CAPACITY);
             prop_assert!(d.error().is_none());
+        }
+    }
+}
+
+#[test]
+fn console_output_decodes_with_and_without_times() {
+    let l = XelaCanLayout { taxels: 16, ..XelaCanLayout::default() };
+    let plain = |t_us: Option<u64>, f: &CanFrame| {
+        crate::candump::plain::format_plain_line(t_us, "can0", f.id, f.extended, f.data())
+    };
+    for times in [None, Some(false), Some(true)] {
+        let mut lines = Vec::new();
+        for s in 0..5 {
+            for t in 0..16u16 {
+                let f = l.taxel_frame(t, value(s, t), true);
+                // -t z: since the first frame; -t d: since the previous one.
+                let t_us = times.map(|deltas| if deltas { 100 } else { s * 10_000 + u64::from(t) * 100 });
+                lines.push(plain(t_us, &f));
+            }
+        }
+        let text = lines.join("\n");
+        let d =
+            CanLogDecoder::new(text.as_bytes(), &can_cfg(), None).unwrap().with_deltas(times == Some(true));
+        let samples: Vec<_> = d.collect();
+        assert_eq!(samples.len(), 5, "{times:?}");
+        for (s, sample) in samples.iter().enumerate() {
+            assert_eq!(sample.raw, (0..16).map(|t| value(s as u64, t)).collect::<Vec<_>>());
+        }
+        match times {
+            // Log order, spaced as if at rate_hz (100 Hz, 16 frames a scan).
+            None => assert_eq!(samples[1].t.0 - samples[0].t.0, 10_000_000),
+            Some(false) => assert_eq!(samples[1].t, TimeNs((10_000 + 1500) * 1000)),
+            Some(true) => assert_eq!(samples[1].t, TimeNs(32 * 100 * 1000), "every gap added, the first too"),
         }
     }
 }

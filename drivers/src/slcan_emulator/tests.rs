@@ -7,7 +7,9 @@ use slidetrack_core::TimeNs;
 
 use super::*;
 use crate::can::CanBus;
-use crate::can_protocol::{CanScanAssembler, XelaCanLayout};
+use crate::can_layout::CanLayoutDecoder;
+use crate::can_protocol::XelaCanLayout;
+use crate::config::CanTactileConfig;
 use crate::io_error_kind;
 use crate::slcan::SlcanConfig;
 use crate::slcan_bus::SlcanBus;
@@ -195,18 +197,22 @@ fn a_xela_board_streams_scans_through_the_adapter() {
     let emulator = SlcanEmulator::start(source, emu_cfg).unwrap();
     let bus = SlcanBus::open(emulator.path(), &config()).unwrap();
     bus.send(&layout.start_command()).unwrap();
-    let mut assembler = CanScanAssembler::new(layout, CanScanAssembler::span_for_rate(500.0));
+    let cfg = CanTactileConfig {
+        sensors: crate::sensors::default_sensors(4, 4)[..1].to_vec(),
+        ..CanTactileConfig::default()
+    };
+    let mut decoder = CanLayoutDecoder::new(cfg.layout().unwrap(), 500.0);
     let mut scans = Vec::new();
     while scans.len() < 50 {
         let received = bus.recv_timestamped(Duration::from_secs(2)).unwrap().expect("a frame");
         let t = TimeNs(received.timestamp.unwrap().adapter_ms * 1_000_000);
-        scans.extend(assembler.push(t, &received.frame));
+        scans.extend(decoder.push(t, &received.frame));
     }
     for pair in scans.windows(2) {
-        let first = |s: &crate::can_protocol::CanScan| s.taxels[0].unwrap()[0];
+        let first = |s: &crate::can_layout::LayoutScan| s.taxels[0][0];
         assert_eq!(first(&pair[1]), first(&pair[0]) + 1, "consecutive scans");
         assert!(pair[1].t >= pair[0].t, "adapter times never decrease");
-        assert_eq!(pair[1].taxels[15], Some([first(&pair[1]), 15, 7]));
+        assert_eq!(pair[1].taxels[15], [first(&pair[1]), 15, 7]);
     }
     assert_eq!(emulator.transmitted(), [layout.start_command()]);
 }

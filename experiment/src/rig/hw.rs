@@ -19,7 +19,9 @@ use slidetrack_drivers::config::{
 };
 use slidetrack_drivers::xela_ws::config::EMULATED_URL;
 use slidetrack_drivers::xela_ws::{EmulatedXelaWsTactile, XelaWsTactile};
-use slidetrack_drivers::{CanHand, CanTactile, EmulatedSerialTactile, SerialTactile, V4l2Camera};
+use slidetrack_drivers::{
+    CanHand, CanTactile, EmulatedSerialTactile, EmulatedSlcanTactile, SerialTactile, V4l2Camera,
+};
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, Stream, stream_seed};
 
@@ -31,7 +33,10 @@ pub fn describe(hw: &HwRigConfig) -> String {
     let tactile = match &hw.tactile {
         TactileDevice::Sim => "sim".to_string(),
         TactileDevice::Serial(s) => format!("serial {}", s.port),
-        TactileDevice::Can(c) => format!("CAN {} board {}", c.interface, c.board),
+        TactileDevice::Can(c) => match &c.slcan {
+            Some(s) => format!("CAN via SLCAN adapter {}", s.port),
+            None => format!("CAN {}", c.interface),
+        },
         TactileDevice::XelaWs(x) => format!("xela_server {}", x.url),
     };
     let camera = match &hw.camera {
@@ -75,12 +80,13 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     let emulated = match &hw.tactile {
         TactileDevice::Serial(s) => s.port == EMULATED_PORT,
         TactileDevice::XelaWs(x) => x.url == EMULATED_URL,
+        TactileDevice::Can(c) => c.slcan.as_ref().is_some_and(|s| s.port == EMULATED_PORT),
         _ => false,
     };
     let drive = hand_use == HandUse::Drive;
     if emulated && drive && !matches!(hw.hand, HandDevice::Sim) {
         bail!(
-            "hw.tactile port = \"emulated\" (or url = \"emulated\") needs hw.hand kind = \"sim\": \
+            "hw.tactile port = \"emulated\" (serial or slcan, or url = \"emulated\") needs hw.hand kind = \"sim\": \
              the emulated sensors feel the simulated hand"
         );
     }
@@ -118,6 +124,10 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         }
         (TactileDevice::Serial(s), _) => {
             Box::new(SerialTactile::open(&s.port, s, s.rate_hz, Arc::clone(&clock))?)
+        }
+        (TactileDevice::Can(c), Some(t)) if emulated => {
+            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
+            Box::new(EmulatedSlcanTactile::start(Box::new(t), c, sim_rate, Arc::clone(&clock))?)
         }
         (TactileDevice::Can(c), _) => Box::new(CanTactile::open(c, Arc::clone(&clock))?),
         (TactileDevice::XelaWs(x), Some(t)) if emulated => {

@@ -1,0 +1,81 @@
+//! A CAN tactile device made of the simulated rig behind an SLCAN adapter
+//! made of a pseudo-terminal (`slcan = { port = "emulated" }`): the
+//! simulated sensors' scans are encoded in the configured layout, streamed
+//! by [`SlcanEmulator`] as an adapter would, and read back by
+//! [`SlcanBus`] and [`CanTactile`] exactly as from a real adapter.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use slidetrack_core::{
+    Clock, DecoderCounters, DeviceError, ErrorKind, TactileInfo, TactileSample, TactileSource,
+};
+
+use crate::can_tactile::CanTactile;
+use crate::config::{CanTactileConfig, EMULATED_PORT};
+use crate::emulator::check_emulated_sensors;
+use crate::slcan_bus::SlcanBus;
+use crate::slcan_emulator::{EmulatorRecord, FrameSource, SlcanEmulator, SlcanEmulatorConfig};
+
+/// The CAN backend reading the SLCAN emulator. Dropping it sends the stop
+/// frames and closes the adapter's channel, then stops the emulator.
+pub struct EmulatedSlcanTactile {
+    tactile: CanTactile,
+    emulator: SlcanEmulator,
+}
+
+impl EmulatedSlcanTactile {
+    /// Starts the emulator streaming `source`'s scans in `cfg`'s layout,
+    /// then opens its pseudo-terminal as the adapter's port with `cfg`'s
+    /// SLCAN settings (its `port` ignored) and sends the start frames.
+    /// `rate_hz` (the simulated rate) is recorded in the layout.
+    pub fn start(
+        mut source: Box<dyn TactileSource>,
+        cfg: &CanTactileConfig,
+        rate_hz: f64,
+        clock: Arc<dyn Clock>,
+    ) -> Result<EmulatedSlcanTactile, DeviceError> {
+        check_emulated_sensors(&source.info(), &cfg.sensors)?;
+        let layout =
+            cfg.layout().map_err(|e| DeviceError::new(ErrorKind::Other, EMULATED_PORT, e.to_string()))?;
+        let transport = cfg.slcan.clone().unwrap_or_default();
+        let frames: FrameSource = Box::new(move || match source.read() {
+            Ok(sample) => Some(layout.encode_scan(&sample.raw)),
+            Err(e) => {
+                tracing::warn!("slcan emulator: the simulated source failed: {e}");
+                None
+            }
+        });
+        let emu_cfg = SlcanEmulatorConfig {
+            period: Duration::from_millis(1),
+            timestamps_supported: true,
+            unplug_after: transport.unplug_after_s.map(Duration::from_secs_f64),
+            ..SlcanEmulatorConfig::default()
+        };
+        let emulator = SlcanEmulator::start(frames, emu_cfg)?;
+        let bus = SlcanBus::open(emulator.path(), &transport.adapter())?;
+        let tactile = CanTactile::with_bus(Arc::new(bus), cfg, rate_hz, clock)?;
+        Ok(EmulatedSlcanTactile { tactile, emulator })
+    }
+
+    /// What the emulated adapter saw (commands, transmitted frames).
+    pub fn record(&self) -> EmulatorRecord {
+        self.emulator.record()
+    }
+}
+
+impl TactileSource for EmulatedSlcanTactile {
+    /// # Contract
+    /// As [`CanTactile`]'s: the frames come through a real tty as SLCAN lines.
+    fn read(&mut self) -> Result<TactileSample, DeviceError> {
+        self.tactile.read()
+    }
+
+    fn info(&self) -> TactileInfo {
+        self.tactile.info()
+    }
+
+    fn counters(&self) -> Option<DecoderCounters> {
+        self.tactile.counters()
+    }
+}
