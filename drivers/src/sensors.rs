@@ -89,15 +89,6 @@ pub fn module_taxels(sensors: &[HwSensor]) -> Vec<(u32, usize)> {
     sensors.iter().map(|s| (s.module, s.taxels())).collect()
 }
 
-/// The taxels at `board_taxels` of a CAN board scan, or `None` when one of
-/// them is missing or marked invalid.
-pub fn pick_board_taxels(
-    taxels: &[Option<slidetrack_core::RawTaxel>],
-    board_taxels: &[usize],
-) -> Option<Vec<slidetrack_core::RawTaxel>> {
-    board_taxels.iter().map(|&t| taxels.get(t).copied().flatten()).collect()
-}
-
 /// What a configured tactile device is.
 pub fn tactile_info(
     device: &str,

@@ -4,14 +4,15 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use slidetrack_drivers::scan::{ModuleScanAssembler, default_finger_taxels};
+use slidetrack_drivers::scan::ModuleScanAssembler;
+use slidetrack_drivers::sensors::{default_sensors, module_taxels};
 use slidetrack_drivers::serial_protocol::{DECODER_CAPACITY, SerialDecoder, SerialEvent};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&chunk, bytes)) = data.split_first() else { return };
     let chunk = usize::from(chunk).max(1);
     let mut decoder = SerialDecoder::new();
-    let mut assembler = ModuleScanAssembler::new(&default_finger_taxels());
+    let mut assembler = ModuleScanAssembler::new(&module_taxels(&default_sensors(4, 4)));
     let mut frames = 0u64;
     for piece in bytes.chunks(chunk) {
         decoder.feed(piece, |event| {
