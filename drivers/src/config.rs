@@ -326,54 +326,62 @@ fn check(field: &str, value: f64, ok: bool, expected: &'static str) -> Result<()
     if ok { Ok(()) } else { Err(HwConfigError::OutOfRange { field: field.into(), value, expected }) }
 }
 
+/// The checks of a serial tactile device that serde's types cannot make.
+fn validate_serial(s: &SerialTactileConfig) -> Result<(), HwConfigError> {
+    check("tactile.rate_hz", s.rate_hz, s.rate_hz.is_finite() && s.rate_hz > 0.0, "> 0 Hz")?;
+    let n = f64::from(s.taxels_per_module);
+    let ok = (1..=MAX_TAXELS).contains(&usize::from(s.taxels_per_module));
+    check("tactile.taxels_per_module", n, ok, "1..=64")?;
+    check("tactile.timeout_ms", s.timeout_ms as f64, s.timeout_ms > 0, "> 0 ms")?;
+    validate_sensors(&s.sensors, &s.fingers, usize::from(s.taxels_per_module))?;
+    if let Some(big) = s.sensors.iter().find(|x| x.module > 255) {
+        check("tactile.sensors.module", f64::from(big.module), false, "0..=255")?;
+    }
+    if let Some(t) = s.emulator.unplug_after_s {
+        check("tactile.emulator.unplug_after_s", t, t.is_finite() && t >= 0.0, ">= 0 s")?;
+    }
+    Ok(())
+}
+
+/// The checks of a CAN tactile device that serde's types cannot make.
+fn validate_can(c: &CanTactileConfig) -> Result<(), HwConfigError> {
+    if c.map.is_empty() {
+        c.legacy_layout().validate()?;
+    }
+    c.layout()?;
+    if let Some(s) = &c.slcan {
+        crate::slcan::bitrate_code(s.bitrate)
+            .map_err(|e| HwConfigError::Can(format!("hw.tactile.slcan.bitrate: {e}")))?;
+        if let Some(t) = s.unplug_after_s {
+            check("tactile.slcan.unplug_after_s", t, t.is_finite() && t >= 0.0, ">= 0 s")?;
+        }
+    }
+    check("tactile.rate_hz", c.rate_hz, c.rate_hz.is_finite() && c.rate_hz > 0.0, "> 0 Hz")?;
+    check("tactile.timeout_ms", c.timeout_ms as f64, c.timeout_ms > 0, "> 0 ms")?;
+    let per = f64::from(c.taxels_per_module);
+    check("tactile.taxels_per_module", per, c.taxels_per_module > 0, ">= 1")?;
+    // With an explicit map, modules and taxels_per_module are not used.
+    let per_module = if c.map.is_empty() { usize::from(c.taxels_per_module) } else { usize::MAX };
+    validate_sensors(&c.sensors, &c.fingers, per_module)?;
+    let per = usize::from(c.taxels_per_module);
+    for x in c.sensors.iter().filter(|_| c.map.is_empty()) {
+        let end = x.module as usize * per + x.taxels();
+        if end > usize::from(c.taxels) {
+            let (name, module, taxels) = (x.name.clone(), x.module, c.taxels);
+            return Err(HwConfigError::BeyondBoard { name, module, end, taxels });
+        }
+    }
+    Ok(())
+}
+
 impl HwRigConfig {
     /// Checks what serde's types cannot.
     pub fn validate(&self) -> Result<(), HwConfigError> {
         match &self.tactile {
             TactileDevice::Sim => {}
             TactileDevice::XelaWs(x) => x.validate()?,
-            TactileDevice::Serial(s) => {
-                check("tactile.rate_hz", s.rate_hz, s.rate_hz.is_finite() && s.rate_hz > 0.0, "> 0 Hz")?;
-                let n = f64::from(s.taxels_per_module);
-                let ok = (1..=MAX_TAXELS).contains(&usize::from(s.taxels_per_module));
-                check("tactile.taxels_per_module", n, ok, "1..=64")?;
-                check("tactile.timeout_ms", s.timeout_ms as f64, s.timeout_ms > 0, "> 0 ms")?;
-                validate_sensors(&s.sensors, &s.fingers, usize::from(s.taxels_per_module))?;
-                if let Some(big) = s.sensors.iter().find(|x| x.module > 255) {
-                    check("tactile.sensors.module", f64::from(big.module), false, "0..=255")?;
-                }
-                if let Some(t) = s.emulator.unplug_after_s {
-                    check("tactile.emulator.unplug_after_s", t, t.is_finite() && t >= 0.0, ">= 0 s")?;
-                }
-            }
-            TactileDevice::Can(c) => {
-                if c.map.is_empty() {
-                    c.legacy_layout().validate()?;
-                }
-                c.layout()?;
-                if let Some(s) = &c.slcan {
-                    crate::slcan::bitrate_code(s.bitrate)
-                        .map_err(|e| HwConfigError::Can(format!("hw.tactile.slcan.bitrate: {e}")))?;
-                    if let Some(t) = s.unplug_after_s {
-                        check("tactile.slcan.unplug_after_s", t, t.is_finite() && t >= 0.0, ">= 0 s")?;
-                    }
-                }
-                check("tactile.rate_hz", c.rate_hz, c.rate_hz.is_finite() && c.rate_hz > 0.0, "> 0 Hz")?;
-                check("tactile.timeout_ms", c.timeout_ms as f64, c.timeout_ms > 0, "> 0 ms")?;
-                let per = f64::from(c.taxels_per_module);
-                check("tactile.taxels_per_module", per, c.taxels_per_module > 0, ">= 1")?;
-                // With an explicit map, modules and taxels_per_module are not used.
-                let per_module = if c.map.is_empty() { usize::from(c.taxels_per_module) } else { usize::MAX };
-                validate_sensors(&c.sensors, &c.fingers, per_module)?;
-                let per = usize::from(c.taxels_per_module);
-                for x in c.sensors.iter().filter(|_| c.map.is_empty()) {
-                    let end = x.module as usize * per + x.taxels();
-                    if end > usize::from(c.taxels) {
-                        let (name, module, taxels) = (x.name.clone(), x.module, c.taxels);
-                        return Err(HwConfigError::BeyondBoard { name, module, end, taxels });
-                    }
-                }
-            }
+            TactileDevice::Serial(s) => validate_serial(s)?,
+            TactileDevice::Can(c) => validate_can(c)?,
         }
         if let CameraDevice::V4l2(v) = &self.camera {
             check("camera.fps", v.fps, v.fps.is_finite() && v.fps > 0.0, "> 0 Hz")?;
