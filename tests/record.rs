@@ -156,3 +156,39 @@ fn a_xela_server_that_goes_away_ends_the_recording_with_a_readable_file() {
     let raw = read_channel::<TactileRaw>(&file, ReadOptions::default()).unwrap();
     assert!((40..=100).contains(&raw.len()), "{} scans in about 0.8 s", raw.len());
 }
+
+/// The simulated patches behind an SLCAN adapter emulated on a
+/// pseudo-terminal, in the legacy CAN layout, unplugged after `unplug_s`.
+#[test]
+fn an_slcan_adapter_is_recorded_and_its_unplugging_leaves_a_readable_file() {
+    let dir = tempdir();
+    let rig = |unplug: &str| {
+        write_rig(
+            dir.path(),
+            &format!(
+                "[hw]\nname = \"slcan-dry-run\"\n[hw.tactile]\nkind = \"can\"\n\
+                 slcan = {{ port = \"emulated\"{unplug} }}\n\
+                 fingers = {{ thumb = {{ sensor = \"thumb\" }}, index = {{ sensor = \"index\" }}, middle = {{ sensor = \"middle\" }} }}\n\
+                 [hw.camera]\nkind = \"none\"\n[hw.hand]\nkind = \"sim\"\n{SIM_PATCH_4X4}"
+            ),
+        )
+    };
+    let file = dir.path().join("slcan.mcap");
+    let f = file.to_str().unwrap();
+    let line = ok(&["-q", "record", "--config", &rig(""), "--duration", "1", "--out", f]);
+    assert!(line.contains("complete"), "{line}");
+    let raw = read_channel::<TactileRaw>(&file, ReadOptions::default()).unwrap();
+    assert!(raw.len() > 60, "{} scans in 1 s at 100 Hz", raw.len());
+    assert!(raw.iter().all(|(_, r)| r.sensors.iter().map(|s| s.taxels.len()).sum::<usize>() == 48));
+
+    let gone = dir.path().join("unplugged.mcap");
+    let g = gone.to_str().unwrap();
+    let out =
+        run(&["-q", "record", "--config", &rig(", unplug_after_s = 0.8"), "--duration", "5", "--out", g]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let info = SessionInfo::read(&gone, ReadOptions::default()).expect("a finished, readable file");
+    assert_eq!(info.metadata["slidetrack.outcome"]["completed"], "false");
+    let raw = read_channel::<TactileRaw>(&gone, ReadOptions::default()).unwrap();
+    assert!((30..=100).contains(&raw.len()), "{} scans in about 0.8 s", raw.len());
+}
