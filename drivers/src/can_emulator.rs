@@ -13,7 +13,7 @@ use slidetrack_core::{
 
 use crate::can_tactile::CanTactile;
 use crate::config::{CanTactileConfig, EMULATED_PORT};
-use crate::emulator::check_emulated_sensors;
+use crate::emulator::{check_emulated_sensors, sensor_grids};
 use crate::slcan_bus::SlcanBus;
 use crate::slcan_emulator::{EmulatorRecord, FrameSource, SlcanEmulator, SlcanEmulatorConfig};
 
@@ -35,7 +35,7 @@ impl EmulatedSlcanTactile {
         rate_hz: f64,
         clock: Arc<dyn Clock>,
     ) -> Result<EmulatedSlcanTactile, DeviceError> {
-        check_emulated_sensors(&source.info(), &cfg.sensors)?;
+        check_emulated_sensors(&source.info(), &sensor_grids(&cfg.sensors), EMULATED_PORT)?;
         let layout =
             cfg.layout().map_err(|e| DeviceError::new(ErrorKind::Other, EMULATED_PORT, e.to_string()))?;
         let transport = cfg.slcan.clone().unwrap_or_default();

@@ -125,7 +125,7 @@ impl EmulatedSerialTactile {
         rate_hz: f64,
         clock: Arc<dyn Clock>,
     ) -> Result<EmulatedSerialTactile, DeviceError> {
-        check_emulated_sensors(&source.info(), &cfg.sensors)?;
+        check_emulated_sensors(&source.info(), &sensor_grids(&cfg.sensors), EMULATED_PORT)?;
         let port = EmulatedPort::open()?;
         let tactile = SerialTactile::open(port.path(), cfg, rate_hz, clock)?;
         let modules = cfg.sensors.iter().map(|s| s.module).collect();
@@ -150,28 +150,38 @@ impl TactileSource for EmulatedSerialTactile {
     }
 }
 
-/// The configured sensors must be the simulated ones, taxel for taxel: the
-/// emulator sends what the simulator measures, nothing invented.
-pub(crate) fn check_emulated_sensors(sim: &TactileInfo, sensors: &[HwSensor]) -> Result<(), DeviceError> {
+/// The configured sensors, `(name, rows, cols)`, must be the simulated ones
+/// taxel for taxel: an emulator sends what the simulator measures, nothing
+/// invented. The error names `device` (the emulated port or URL).
+pub(crate) fn check_emulated_sensors(
+    sim: &TactileInfo,
+    configured: &[(&str, u32, u32)],
+    device: &str,
+) -> Result<(), DeviceError> {
     let sim_sensors = &sim.layout.sensors;
-    let mismatch = sim_sensors.len() != sensors.len()
-        || sim_sensors.iter().zip(sensors).any(|(a, b)| a.taxels() != b.taxels());
+    let mismatch = sim_sensors.len() != configured.len()
+        || sim_sensors.iter().zip(configured).any(|(a, &(_, r, c))| a.taxels() != (r * c) as usize);
     if !mismatch {
         return Ok(());
     }
-    let describe = |v: Vec<(String, u32, u32)>| {
+    let describe = |v: Vec<(&str, u32, u32)>| {
         v.iter().map(|(n, r, c)| format!("{n} {r}x{c}")).collect::<Vec<_>>().join(", ")
     };
-    let sim = describe(sim_sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect());
-    let hw = describe(sensors.iter().map(|s| (s.name.clone(), s.rows, s.cols)).collect());
+    let sim = describe(sim_sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect());
+    let hw = describe(configured.to_vec());
     Err(DeviceError::new(
         ErrorKind::Other,
-        EMULATED_PORT,
+        device,
         format!(
             "hw.tactile.sensors ({hw}) must match the simulated sensors ({sim}) taxel for taxel: \
              set rows and cols, or a [sim.tactile.patch]"
         ),
     ))
+}
+
+/// `(name, rows, cols)` of configured sensors, for [`check_emulated_sensors`].
+pub(crate) fn sensor_grids(sensors: &[HwSensor]) -> Vec<(&str, u32, u32)> {
+    sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect()
 }
 
 struct Worker {

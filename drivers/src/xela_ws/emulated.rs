@@ -16,6 +16,7 @@ use super::config::{EMULATED_URL, XelaEmulatorConfig, XelaWsTactileConfig};
 use super::emulator::{LiveMessage, XelaWsEmulator};
 use super::protocol::{XelaScan, XelaSensorScan, encode_scan, encode_welcome};
 use super::source::XelaWsTactile;
+use crate::emulator::check_emulated_sensors;
 
 /// The source reading the emulator; dropping it closes the connection,
 /// then stops the feed and the server.
@@ -51,7 +52,8 @@ impl EmulatedXelaWsTactile {
         rate_hz: f64,
         clock: Arc<dyn Clock>,
     ) -> Result<EmulatedXelaWsTactile, DeviceError> {
-        check_emulated_sensors(&source.info(), cfg)?;
+        let grids: Vec<_> = cfg.sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect();
+        check_emulated_sensors(&source.info(), &grids, EMULATED_URL)?;
         let fail = |e: std::io::Error| {
             DeviceError::new(ErrorKind::Other, EMULATED_URL, format!("cannot start the emulator: {e}"))
         };
@@ -94,28 +96,6 @@ impl TactileSource for EmulatedXelaWsTactile {
     fn counters(&self) -> Option<DecoderCounters> {
         self.tactile.counters()
     }
-}
-
-/// The configured sensors must be the simulated ones, taxel for taxel.
-fn check_emulated_sensors(sim: &TactileInfo, cfg: &XelaWsTactileConfig) -> Result<(), DeviceError> {
-    let sim_sensors = &sim.layout.sensors;
-    let same = sim_sensors.len() == cfg.sensors.len()
-        && sim_sensors.iter().zip(&cfg.sensors).all(|(a, b)| a.taxels() == b.taxels());
-    if same {
-        return Ok(());
-    }
-    let hw: Vec<String> = cfg.sensors.iter().map(|s| format!("{} {}x{}", s.name, s.rows, s.cols)).collect();
-    let sim: Vec<String> = sim_sensors.iter().map(|s| format!("{} {}x{}", s.name, s.rows, s.cols)).collect();
-    Err(DeviceError::new(
-        ErrorKind::Other,
-        EMULATED_URL,
-        format!(
-            "hw.tactile.sensors ({}) must match the simulated sensors ({}) taxel for taxel: \
-             set rows and cols, or a [sim.tactile.patch]",
-            hw.join(", "),
-            sim.join(", ")
-        ),
-    ))
 }
 
 /// Turns the simulated scans into the server's messages.
