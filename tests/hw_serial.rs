@@ -6,20 +6,10 @@ mod common;
 
 use std::path::Path;
 
-use common::{SIM_PATCH_4X4, fails, ok, slidetrack, tempdir};
+use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, fails, ok, slidetrack, tempdir};
 use slidetrack_session::{
     ReadOptions, SessionInfo, TactileDecoder, TactileRaw, TactileZeroed, TaxelLayout, read_channel,
 };
-
-/// A short trial: the protocol's phases cut down so that the real-time run
-/// stays within seconds.
-const SHORT_PROTOCOL: &str = "
-[protocol]
-zero_duration_s = 0.5
-ramp_duration_s = 1.0
-settle_duration_s = 1.5
-release_duration_s = 0.3
-";
 
 /// A 4x4 patch per fingertip on the simulated rig, read through the
 /// emulator as three uSkin-style modules of 16 taxels (the default sensors).

@@ -8,18 +8,8 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{SIM_PATCH_4X4, ok, slidetrack, tempdir};
+use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, ok, slidetrack, tempdir};
 use slidetrack_session::{ReadOptions, SessionInfo, TactileDecoder, TactileRaw, TaxelLayout, read_channel};
-
-/// A short trial: the protocol's phases cut down so that the real-time run
-/// stays within seconds.
-const SHORT_PROTOCOL: &str = "
-[protocol]
-zero_duration_s = 0.5
-ramp_duration_s = 1.0
-settle_duration_s = 1.5
-release_duration_s = 0.3
-";
 
 /// Three 4x4 patches (the default sensors, modules 0-2) in the legacy
 /// layout: taxel t of module m at 0x710 + 16 m + t.

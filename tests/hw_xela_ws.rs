@@ -10,21 +10,13 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use common::{SIM_PATCH_4X4, ok, slidetrack, tempdir};
+use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, ok, slidetrack, tempdir};
 use serde_json::Value;
 use slidetrack_drivers::xela_ws::{EmulatedMessage, XelaWsEmulator, XelaWsEmulatorConfig};
 use slidetrack_session::{
     ReadOptions, SessionInfo, TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TaxelLayout,
     read_channel,
 };
-
-const SHORT_PROTOCOL: &str = "
-[protocol]
-zero_duration_s = 0.5
-ramp_duration_s = 1.0
-settle_duration_s = 1.5
-release_duration_s = 0.3
-";
 
 /// The simulated 4x4 patches behind the emulator, as server sensors 1-3.
 const XELA_EMULATED: &str = "

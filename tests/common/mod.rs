@@ -105,3 +105,13 @@ cols = 4
 pitch_mm = 4.7
 contact_sigma_mm = 6.0
 ";
+
+/// A `[protocol]` table with the phases before and after the cycles cut
+/// short, so that real-time trials on emulated devices take seconds.
+pub const SHORT_PROTOCOL: &str = "
+[protocol]
+zero_duration_s = 0.5
+ramp_duration_s = 1.0
+settle_duration_s = 1.5
+release_duration_s = 0.3
+";
