@@ -8,7 +8,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, ok, slidetrack, tempdir};
+use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, assert_ended_by_disconnect, ok, slidetrack, tempdir};
 use slidetrack_session::{ReadOptions, SessionInfo, TactileDecoder, TactileRaw, TaxelLayout, read_channel};
 
 /// Three 4x4 patches (the default sensors, modules 0-2) in the legacy
@@ -146,15 +146,7 @@ fn unplugging_the_adapter_mid_trial_releases_the_hand_and_keeps_the_data() {
     assert!(stderr.contains("the hand was released") && stderr.contains("scans recorded so far"), "{stderr}");
 
     let file = out.join("box-s1-t000.mcap");
-    let info = SessionInfo::read(&file, ReadOptions::default()).unwrap();
-    assert!(!info.truncated);
-    let outcome = &info.metadata["slidetrack.outcome"];
-    assert_eq!(outcome["completed"], "false");
-    assert!(outcome["abort_reason"].contains("disconnected"), "{outcome:?}");
-    let raw = read_channel::<TactileRaw>(&file, ReadOptions::default()).unwrap();
-    assert!((150..=260).contains(&raw.len()), "{} scans in 2.5 s", raw.len());
-    let events = ok(&["export", file.to_str().unwrap(), "--channel", "/protocol/events"]);
-    assert!(events.lines().last().unwrap().contains("aborted"), "{events}");
+    assert_ended_by_disconnect(&file, 150..=260);
 }
 
 #[test]

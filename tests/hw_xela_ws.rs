@@ -10,7 +10,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, ok, slidetrack, tempdir};
+use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, assert_ended_by_disconnect, ok, slidetrack, tempdir};
 use serde_json::Value;
 use slidetrack_drivers::xela_ws::{EmulatedMessage, XelaWsEmulator, XelaWsEmulatorConfig};
 use slidetrack_session::{
@@ -264,15 +264,7 @@ fn a_server_gone_for_good_ends_the_trial_with_a_release_and_a_readable_file() {
     assert!(stderr.contains("disconnected") && stderr.contains("ws://127.0.0.1:"), "{stderr}");
     assert!(stderr.contains("the hand was released") && stderr.contains("scans recorded so far"), "{stderr}");
 
-    let info = SessionInfo::read(&file, ReadOptions::default()).unwrap();
-    assert!(!info.truncated);
-    let outcome = &info.metadata["slidetrack.outcome"];
-    assert_eq!(outcome["completed"], "false");
-    assert!(outcome["abort_reason"].contains("disconnected"), "{outcome:?}");
-    let raw = read_channel::<TactileRaw>(&file, ReadOptions::default()).unwrap();
-    assert!((150..=270).contains(&raw.len()), "{} scans in 2.5 s", raw.len());
-    let events = ok(&["export", file.to_str().unwrap(), "--channel", "/protocol/events"]);
-    assert!(events.lines().last().unwrap().contains("aborted"), "{events}");
+    assert_ended_by_disconnect(&file, 150..=270);
 }
 
 #[test]

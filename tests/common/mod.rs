@@ -115,3 +115,23 @@ ramp_duration_s = 1.0
 settle_duration_s = 1.5
 release_duration_s = 0.3
 ";
+
+/// Checks the session a device loss ended: finished (not truncated), the
+/// outcome incomplete and aborted as `disconnected`, `scans` tactile scans,
+/// `aborted` the last protocol event. Returns the session's facts.
+pub fn assert_ended_by_disconnect(
+    file: &Path,
+    scans: std::ops::RangeInclusive<usize>,
+) -> slidetrack_session::SessionInfo {
+    use slidetrack_session::{ReadOptions, SessionInfo, TactileRaw, read_channel};
+    let info = SessionInfo::read(file, ReadOptions::default()).expect("a finished, readable session");
+    assert!(!info.truncated);
+    let outcome = &info.metadata["slidetrack.outcome"];
+    assert_eq!(outcome["completed"], "false");
+    assert!(outcome["abort_reason"].contains("disconnected"), "{outcome:?}");
+    let raw = read_channel::<TactileRaw>(file, ReadOptions::default()).expect("tactile scans");
+    assert!(scans.contains(&raw.len()), "{} scans, expected {scans:?}", raw.len());
+    let events = ok(&["export", file.to_str().expect("utf-8 path"), "--channel", "/protocol/events"]);
+    assert!(events.lines().last().expect("events").contains("aborted"), "{events}");
+    info
+}
