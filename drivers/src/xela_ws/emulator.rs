@@ -119,44 +119,38 @@ impl XelaWsEmulator {
 
     /// Listens on `addr` (port 0: any free port) and serves `config`.
     pub fn bind(addr: SocketAddr, config: XelaWsEmulatorConfig) -> io::Result<XelaWsEmulator> {
+        XelaWsEmulator::serve(addr, |listener, _, stop, sent, connections| {
+            let server = Server { listener, config, stop, sent, connections };
+            move || server.run()
+        })
+    }
+
+    /// Listens on 127.0.0.1 on a free port and sends what `feed` brings as
+    /// it comes, after `welcome` on each connection (see [`LiveMessage`]).
+    pub fn start_live(welcome: Option<String>, feed: Receiver<LiveMessage>) -> io::Result<XelaWsEmulator> {
+        let localhost = SocketAddr::from(([127, 0, 0, 1], 0));
+        XelaWsEmulator::serve(localhost, |listener, addr, stop, sent, connections| {
+            let server =
+                live::LiveServer { listener: Some(listener), addr, welcome, feed, stop, sent, connections };
+            move || server.run()
+        })
+    }
+
+    /// Binds a non-blocking listener on `addr` and runs the server that
+    /// `make` builds from it (listener, bound address, stop flag, counters
+    /// of messages sent and connections) on a thread named `xela-ws-emulator`.
+    fn serve<R: FnOnce() + Send + 'static>(
+        addr: SocketAddr,
+        make: impl FnOnce(TcpListener, SocketAddr, Arc<AtomicBool>, Arc<AtomicUsize>, Arc<AtomicUsize>) -> R,
+    ) -> io::Result<XelaWsEmulator> {
         let listener = TcpListener::bind(addr)?;
         listener.set_nonblocking(true)?;
         let addr = listener.local_addr()?;
         let stop = Arc::new(AtomicBool::new(false));
         let sent = Arc::new(AtomicUsize::new(0));
         let connections = Arc::new(AtomicUsize::new(0));
-        let server = Server {
-            listener,
-            config,
-            stop: Arc::clone(&stop),
-            sent: Arc::clone(&sent),
-            connections: Arc::clone(&connections),
-        };
-        let thread =
-            std::thread::Builder::new().name("xela-ws-emulator".into()).spawn(move || server.run())?;
-        Ok(XelaWsEmulator { addr, stop, sent, connections, thread: Some(thread) })
-    }
-
-    /// Listens on 127.0.0.1 on a free port and sends what `feed` brings as
-    /// it comes, after `welcome` on each connection (see [`LiveMessage`]).
-    pub fn start_live(welcome: Option<String>, feed: Receiver<LiveMessage>) -> io::Result<XelaWsEmulator> {
-        let listener = TcpListener::bind(SocketAddr::from(([127, 0, 0, 1], 0)))?;
-        listener.set_nonblocking(true)?;
-        let addr = listener.local_addr()?;
-        let stop = Arc::new(AtomicBool::new(false));
-        let sent = Arc::new(AtomicUsize::new(0));
-        let connections = Arc::new(AtomicUsize::new(0));
-        let server = live::LiveServer {
-            listener: Some(listener),
-            addr,
-            welcome,
-            feed,
-            stop: Arc::clone(&stop),
-            sent: Arc::clone(&sent),
-            connections: Arc::clone(&connections),
-        };
-        let thread =
-            std::thread::Builder::new().name("xela-ws-emulator".into()).spawn(move || server.run())?;
+        let run = make(listener, addr, Arc::clone(&stop), Arc::clone(&sent), Arc::clone(&connections));
+        let thread = std::thread::Builder::new().name("xela-ws-emulator".into()).spawn(run)?;
         Ok(XelaWsEmulator { addr, stop, sent, connections, thread: Some(thread) })
     }
 
