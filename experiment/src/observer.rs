@@ -83,6 +83,18 @@ pub trait TrialExtension {
 /// Longest time between two `/tactile/decoder` messages while nothing changes (s).
 const DECODER_LOG_PERIOD_S: f64 = 1.0;
 
+/// The channel in `slot`, registered on `logger` on first use (channels
+/// that only some devices feed appear only in their sessions).
+fn registered<'c, T: ChannelMessage>(
+    logger: &Logger,
+    slot: &'c mut Option<ChannelHandle<T>>,
+) -> Result<&'c ChannelHandle<T>, ObserverError> {
+    match slot {
+        Some(ch) => Ok(ch),
+        None => Ok(slot.insert(logger.register::<T>(BTreeMap::new())?)),
+    }
+}
+
 /// A [`TrialObserver`] that records to a session.
 pub struct SessionObserver<'a> {
     logger: Logger,
@@ -205,21 +217,11 @@ impl<'a> SessionObserver<'a> {
     /// without them add no channel).
     fn log_device_extras(&mut self, s: &TactileSample, seq: u32) -> Result<(), ObserverError> {
         if let Some(msg) = TactileDeviceTime::new(s) {
-            let ch = match &self.ch.device_time {
-                Some(ch) => ch,
-                None => {
-                    self.ch.device_time.insert(self.logger.register::<TactileDeviceTime>(BTreeMap::new())?)
-                }
-            };
+            let ch = registered(&self.logger, &mut self.ch.device_time)?;
             self.logger.log_json(ch, s.t, s.t, seq, &msg)?;
         }
         if let Some(msg) = TactileCalibrated::new(s, &self.layout) {
-            let ch = match &self.ch.calibrated {
-                Some(ch) => ch,
-                None => {
-                    self.ch.calibrated.insert(self.logger.register::<TactileCalibrated>(BTreeMap::new())?)
-                }
-            };
+            let ch = registered(&self.logger, &mut self.ch.calibrated)?;
             self.logger.log_json(ch, s.t, s.t, seq, &msg)?;
         }
         Ok(())
@@ -232,11 +234,9 @@ impl<'a> SessionObserver<'a> {
 
     /// Records a status the hand reported, on `/hand/state`.
     pub fn on_hand_status(&mut self, status: &HandStatus) -> Result<(), ObserverError> {
-        if self.ch.hand_state.is_none() {
-            self.ch.hand_state = Some(self.logger.register::<HandState>(BTreeMap::new())?);
-        }
-        let Some(ch) = &self.ch.hand_state else { return Ok(()) };
-        self.log(ch, status.t, &HandState::new(status))
+        let ch = registered(&self.logger, &mut self.ch.hand_state)?;
+        self.logger.log_json(ch, status.t, status.t, 0, &HandState::new(status))?;
+        Ok(())
     }
 
     /// The protocol's channels; an error when the observer records without them.
@@ -345,9 +345,7 @@ impl TrialObserver for SessionObserver<'_> {
     }
 
     fn on_decoder(&mut self, t: TimeNs, counters: &DecoderCounters) -> Result<(), ObserverError> {
-        if self.ch.decoder.is_none() {
-            self.ch.decoder = Some(self.logger.register::<TactileDecoder>(BTreeMap::new())?);
-        }
+        registered(&self.logger, &mut self.ch.decoder)?;
         self.stats.decoder = Some(*counters);
         let due = match self.decoder_written {
             None => true,
