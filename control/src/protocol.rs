@@ -6,7 +6,7 @@
 //! the requested duration, release. Any safety limit aborts with a release.
 
 use serde::{Deserialize, Serialize};
-use slidetrack_core::{AXES, DeviceError, Finger, FingerMap, FingerVolts, Phase, TactileSample, TimeNs};
+use slidetrack_core::{AXES, ActuatorCommand, DeviceError, Finger, FingerMap, Phase, TactileSample, TimeNs};
 
 use crate::pi::{PiConfig, PiController};
 use crate::reference::{GraspProfile, partition};
@@ -100,8 +100,8 @@ pub struct ControlRecord {
 pub enum HandAction {
     /// Nothing new.
     Hold,
-    /// Apply these proximal-joint voltages (V).
-    Command(FingerVolts),
+    /// Send this command (voltages or a gripper request).
+    Command(ActuatorCommand),
     /// Open the hand safely.
     Release,
 }
@@ -306,7 +306,7 @@ impl Protocol {
                 message: "zeroing the tactile baseline with the hand open".into(),
                 abort: None,
             });
-            out.action = Some(HandAction::Command([0.0; 3]));
+            out.action = Some(HandAction::Command(ActuatorCommand::FingerVolts([0.0; 3])));
         }
         if let Some(reason) = self.check_size(sample).or_else(|| self.check_saturation(sample)) {
             out.events.extend(self.abort(reason));
@@ -417,7 +417,7 @@ impl Protocol {
             desired_counts: desired,
             achieved_counts: z,
         });
-        out.action = Some(HandAction::Command(volts));
+        out.action = Some(HandAction::Command(ActuatorCommand::FingerVolts(volts)));
     }
 
     /// The grasp-strength reference now, moving through ramp, settle and

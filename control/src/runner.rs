@@ -4,8 +4,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use slidetrack_core::{
-    Camera, Clock, DecoderCounters, DeviceError, Frame, HandActuator, Phase, SimTruth, TactileSample,
-    TactileSource, TimeNs, TruthSource,
+    ActuatorCommand, Camera, Clock, DecoderCounters, DeviceError, Frame, HandActuator, Phase, SimTruth,
+    TactileSample, TactileSource, TimeNs, TruthSource,
 };
 
 use crate::protocol::{Baseline, ControlRecord, HandAction, Protocol, ProtocolEvent, Tare};
@@ -41,8 +41,14 @@ pub trait TrialObserver {
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError>;
     /// A control tick.
     fn on_control(&mut self, t: TimeNs, record: &ControlRecord) -> Result<(), ObserverError>;
-    /// Voltages sent to the hand (V), and whether the hand saturated them.
-    fn on_command(&mut self, t: TimeNs, volts: [f64; 3], saturated: bool) -> Result<(), ObserverError>;
+    /// A command sent to the hand, as the hand executes it (saturated or
+    /// clamped to its range), and whether that limited it.
+    fn on_command(
+        &mut self,
+        t: TimeNs,
+        command: &ActuatorCommand,
+        limited: bool,
+    ) -> Result<(), ObserverError>;
     /// A camera frame; returns the marker travel along the sliding axis (m)
     /// when the marker was seen.
     fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError>;
@@ -153,14 +159,13 @@ fn observe_scan(
     for event in &out.events {
         observer.on_event(t, event)?;
     }
-    if let Some(HandAction::Command(volts)) = out.action {
-        if let Err(e) = rig.hand.command(volts) {
+    if let Some(HandAction::Command(command)) = out.action {
+        if let Err(e) = rig.hand.command(&command) {
             emit(observer, t, protocol.device_error(e));
             return Ok(());
         }
-        let max = rig.hand.max_volts();
-        let saturated = volts.iter().any(|v| v.abs() > max);
-        observer.on_command(t, slidetrack_core::saturate(volts, max), saturated)?;
+        let (applied, limited) = command.limited_to(&rig.hand.spec()).unwrap_or((command, false));
+        observer.on_command(t, &applied, limited)?;
     }
     if let Some(camera) = rig.camera.as_mut() {
         loop {

@@ -1,7 +1,7 @@
 //! The protocol's safety limits, driven scan by scan without a rig.
 
 use slidetrack_control::{AbortReason, GraspProfile, HandAction, Protocol, ProtocolConfig, ProtocolSettings};
-use slidetrack_core::{DeviceError, ErrorKind, Phase, TactileInfo, TactileSample, TimeNs};
+use slidetrack_core::{ActuatorCommand, DeviceError, ErrorKind, Phase, TactileInfo, TactileSample, TimeNs};
 
 const BASE: u16 = 30_000;
 
@@ -79,7 +79,8 @@ fn no_contact_before_the_timeout_aborts_and_names_the_fingers() {
     let mut closing = false;
     while !p.finished() && k < 10_000 {
         let out = p.on_tactile(&scan(k, BASE));
-        closing |= matches!(out.action, Some(HandAction::Command(v)) if v[0] > 0.0);
+        closing |=
+            matches!(out.action, Some(HandAction::Command(ActuatorCommand::FingerVolts(v))) if v[0] > 0.0);
         k += 1;
     }
     assert!(closing, "the fingers were told to close");

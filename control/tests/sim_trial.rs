@@ -9,7 +9,9 @@ use slidetrack_control::{
     Baseline, ControlRecord, GraspProfile, ObserverError, Protocol, ProtocolConfig, ProtocolEvent,
     ProtocolSettings, Rig, Tare, TrialObserver, TrialOutcome, run_trial,
 };
-use slidetrack_core::{Frame, Phase, SimClock, SimTruth, TactileSample, TactileSource, TimeNs};
+use slidetrack_core::{
+    ActuatorCommand, Frame, Phase, SimClock, SimTruth, TactileSample, TactileSource, TimeNs,
+};
 use slidetrack_sim::{ObjectConfig, SimDevices, SimRigConfig, sliding_episodes};
 
 #[derive(Default)]
@@ -46,7 +48,7 @@ impl TrialObserver for Collected {
         self.control.push((t, r.clone()));
         Ok(())
     }
-    fn on_command(&mut self, _: TimeNs, _: [f64; 3], _: bool) -> Result<(), ObserverError> {
+    fn on_command(&mut self, _: TimeNs, _: &ActuatorCommand, _: bool) -> Result<(), ObserverError> {
         Ok(())
     }
     fn on_frame(&mut self, _: Frame) -> Result<Option<f64>, ObserverError> {

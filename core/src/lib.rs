@@ -19,7 +19,10 @@ pub use camera::{Camera, CameraIntrinsics, Frame};
 pub use config::{ConfigError, parse_toml};
 pub use counters::DecoderCounters;
 pub use error::{DeviceError, ErrorKind};
-pub use hand::{FingerVolts, HandActuator, HandMonitor, HandStatus, saturate};
+pub use hand::{
+    ActuatorCommand, ActuatorSpec, FingerVolts, GripperObject, GripperRequest, GripperSpec, GripperStatus,
+    HandActuator, HandMonitor, HandStatus, saturate,
+};
 pub use image::{EncodedImage, Image, JpegError, PixelFormat, encode_jpeg};
 pub use marker::{BadMarkerPattern, MarkerPattern};
 pub use phase::Phase;

@@ -7,7 +7,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use crossbeam_channel::{RecvTimeoutError, Sender};
-use slidetrack_core::{DeviceError, ErrorKind, FingerVolts, HandActuator, saturate};
+use slidetrack_core::{ActuatorCommand, ActuatorSpec, DeviceError, ErrorKind, HandActuator, saturate};
 
 use crate::can::{CanBus, SocketCanBus};
 use crate::config::CanHandConfig;
@@ -85,7 +85,10 @@ impl HandActuator for CanHand {
     /// - A failed send (or a failed heartbeat) is returned as the device's
     ///   error kind (`Disconnected` when the interface is gone); the hand is
     ///   sent a release right away, and later commands fail with the same error.
-    fn command(&mut self, volts: FingerVolts) -> Result<(), DeviceError> {
+    fn command(&mut self, command: &ActuatorCommand) -> Result<(), DeviceError> {
+        let ActuatorCommand::FingerVolts(volts) = *command else {
+            return Err(command.wrong_kind(&self.device, "finger voltages"));
+        };
         if let Some(e) = self.failed.clone().or_else(|| self.heartbeat_error()) {
             self.failed = Some(e.clone());
             return Err(e);
@@ -110,8 +113,8 @@ impl HandActuator for CanHand {
         self.send_release()
     }
 
-    fn max_volts(&self) -> f64 {
-        self.max_volts
+    fn spec(&self) -> ActuatorSpec {
+        ActuatorSpec::FingerVolts { max_volts: self.max_volts }
     }
 
     fn device(&self) -> &str {

@@ -6,14 +6,14 @@ use std::collections::BTreeMap;
 use anyhow::Result;
 use slidetrack_control::{Baseline, ControlRecord, ObserverError, ProtocolEvent, Tare, TrialObserver};
 use slidetrack_core::{
-    DecoderCounters, Frame, HandStatus, PerFinger, SimTruth, TactileInfo, TactileLayout, TactileSample,
-    TimeNs,
+    ActuatorCommand, DecoderCounters, Frame, HandStatus, PerFinger, SimTruth, TactileInfo, TactileLayout,
+    TactileSample, TimeNs,
 };
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelHandle, ChannelMessage, CompressedImage, FingerSetpoint,
-    GraspControl, HandCommand, HandState, Logger, ProtocolEvent as EventMsg, SimTruth as TruthMsg,
-    TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileTare, TactileZeroed,
-    TaxelLayout, sensor_taxels,
+    GraspControl, GripperCommand, HandCommand, HandState, Logger, ProtocolEvent as EventMsg,
+    SimTruth as TruthMsg, TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileTare,
+    TactileZeroed, TaxelLayout, sensor_taxels,
 };
 
 use crate::marker::MarkerSource;
@@ -42,7 +42,10 @@ struct ControlChannels {
     tare: ChannelHandle<TactileTare>,
     zeroed: ChannelHandle<TactileZeroed>,
     grasp: ChannelHandle<GraspControl>,
-    command: ChannelHandle<HandCommand>,
+    /// `/hand/command`, registered with the first voltages (voltage-driven hands).
+    command: Option<ChannelHandle<HandCommand>>,
+    /// `/hand/gripper`, registered with the first request (grippers).
+    gripper: Option<ChannelHandle<GripperCommand>>,
 }
 
 struct Channels {
@@ -152,7 +155,8 @@ impl<'a> SessionObserver<'a> {
                     tare: logger.register::<TactileTare>(none())?,
                     zeroed: logger.register::<TactileZeroed>(none())?,
                     grasp: logger.register::<GraspControl>(none())?,
-                    command: logger.register::<HandCommand>(none())?,
+                    command: None,
+                    gripper: None,
                 })
             })
             .transpose()?;
@@ -298,8 +302,31 @@ impl TrialObserver for SessionObserver<'_> {
         self.log(&self.control()?.grasp, t, &msg)
     }
 
-    fn on_command(&mut self, t: TimeNs, volts: [f64; 3], saturated: bool) -> Result<(), ObserverError> {
-        self.log(&self.control()?.command, t, &HandCommand { volts: PerFinger::from_array(volts), saturated })
+    fn on_command(
+        &mut self,
+        t: TimeNs,
+        command: &ActuatorCommand,
+        limited: bool,
+    ) -> Result<(), ObserverError> {
+        let control = self.ch.control.as_mut().ok_or("a recording-only observer got a hand command")?;
+        match command {
+            ActuatorCommand::FingerVolts(volts) => {
+                let ch = registered(&self.logger, &mut control.command)?;
+                let msg = HandCommand { volts: PerFinger::from_array(*volts), saturated: limited };
+                self.logger.log_json(ch, t, t, 0, &msg)?;
+            }
+            ActuatorCommand::Gripper(r) => {
+                let ch = registered(&self.logger, &mut control.gripper)?;
+                let msg = GripperCommand {
+                    position: r.position_steps,
+                    speed: r.speed,
+                    force: r.force,
+                    clamped: limited,
+                };
+                self.logger.log_json(ch, t, t, 0, &msg)?;
+            }
+        }
+        Ok(())
     }
 
     fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError> {

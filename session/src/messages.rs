@@ -30,6 +30,7 @@ pub fn channel_specs() -> Vec<ChannelSpec> {
         ChannelSpec::of::<TactileDeviceTime>(),
         ChannelSpec::of::<GraspControl>(),
         ChannelSpec::of::<HandCommand>(),
+        ChannelSpec::of::<GripperCommand>(),
         ChannelSpec::of::<HandState>(),
         ChannelSpec::of::<CompressedImage>(),
         ChannelSpec::of::<CameraCalibration>(),
@@ -397,6 +398,27 @@ impl ChannelMessage for HandCommand {
     }
 }
 
+/// `/hand/gripper`: the position requests sent to a gripper.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct GripperCommand {
+    /// Requested closure (steps; 0 = fully open; Robotiq `rPR`).
+    pub position: u16,
+    /// Speed request (0-255; Robotiq `rSP`).
+    pub speed: u8,
+    /// Force request (0-255; Robotiq `rFR`).
+    pub force: u8,
+    /// True when the request was clamped to the gripper's range.
+    pub clamped: bool,
+}
+
+impl ChannelMessage for GripperCommand {
+    const TOPIC: &'static str = "/hand/gripper";
+    const SCHEMA_NAME: &'static str = "slidetrack.GripperCommand";
+    fn json_schema() -> Value {
+        derived::<Self>(Self::SCHEMA_NAME)
+    }
+}
+
 /// `/hand/state`: what the hand or gripper reports about itself.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct HandState {
@@ -406,12 +428,43 @@ pub struct HandState {
     /// Opening between the fingertips (m), for grippers that report it;
     /// `null` for hands that do not.
     pub opening: Option<f64>,
+    /// A gripper's status registers, for grippers that report them
+    /// (absent for other hands).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gripper: Option<GripperState>,
+}
+
+/// A gripper's status registers (Robotiq: from `0x07D0`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct GripperState {
+    /// Activated and ready (`gSTA = 3`).
+    pub activated: bool,
+    /// Object detection (`gOBJ`): 0 moving, 1 stopped by a contact while
+    /// opening, 2 stopped by a contact while closing (object held), 3 at the
+    /// requested position without an object (none, or lost).
+    pub object: u8,
+    /// Fault code (`gFLT`), 0 when none.
+    pub fault: u8,
+    /// Position request being followed (`gPR`, steps).
+    pub requested: u16,
+    /// Finger position (`gPO`, steps, 0 = open).
+    pub position: u16,
+    /// Motor current (mA).
+    pub current_ma: u32,
 }
 
 impl HandState {
     /// The message of a hand's status.
     pub fn new(status: &slidetrack_core::HandStatus) -> HandState {
-        HandState { finger_travel: status.finger_travel_m.clone(), opening: status.opening_m }
+        let gripper = status.gripper.map(|g| GripperState {
+            activated: g.activated,
+            object: g.object as u8,
+            fault: g.fault,
+            requested: g.requested_steps,
+            position: g.position_steps,
+            current_ma: g.current_ma,
+        });
+        HandState { finger_travel: status.finger_travel_m.clone(), opening: status.opening_m, gripper }
     }
 }
 

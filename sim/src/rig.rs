@@ -4,9 +4,9 @@
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use slidetrack_core::{
-    Clock, DeviceError, ErrorKind, Finger, FingerReading, FingerVolts, HandActuator, HandMonitor, HandStatus,
-    PerFinger, SensorLayout, SimTruth, TactileInfo, TactileLayout, TactileSample, TactileSource, TimeNs,
-    TruthSource, saturate,
+    ActuatorCommand, ActuatorSpec, Clock, DeviceError, ErrorKind, Finger, FingerReading, HandActuator,
+    HandMonitor, HandStatus, PerFinger, SensorLayout, SimTruth, TactileInfo, TactileLayout, TactileSample,
+    TactileSource, TimeNs, TruthSource, saturate,
 };
 
 use super::config::SimRigConfig;
@@ -87,7 +87,12 @@ impl HandMonitor for SimHandMonitor {
             return Ok(None);
         }
         self.last = Some(t);
-        Ok(Some(HandStatus { t, finger_travel_m: world.finger_travel_m().to_vec(), opening_m: None }))
+        Ok(Some(HandStatus {
+            t,
+            finger_travel_m: world.finger_travel_m().to_vec(),
+            opening_m: None,
+            gripper: None,
+        }))
     }
 
     fn device(&self) -> &str {
@@ -167,8 +172,15 @@ pub struct SimHand {
 }
 
 impl HandActuator for SimHand {
-    fn command(&mut self, volts: FingerVolts) -> Result<(), DeviceError> {
-        let v = saturate(volts, self.max_volts);
+    fn spec(&self) -> ActuatorSpec {
+        ActuatorSpec::FingerVolts { max_volts: self.max_volts }
+    }
+
+    fn command(&mut self, command: &ActuatorCommand) -> Result<(), DeviceError> {
+        let ActuatorCommand::FingerVolts(volts) = command else {
+            return Err(command.wrong_kind("sim hand", "finger voltages"));
+        };
+        let v = saturate(*volts, self.max_volts);
         lock(&self.world, "sim hand")?.set_volts(v);
         Ok(())
     }
@@ -176,10 +188,6 @@ impl HandActuator for SimHand {
     fn release(&mut self) -> Result<(), DeviceError> {
         lock(&self.world, "sim hand")?.set_volts([self.release_volts; 3]);
         Ok(())
-    }
-
-    fn max_volts(&self) -> f64 {
-        self.max_volts
     }
 
     fn device(&self) -> &str {

@@ -17,7 +17,7 @@ use crate::can_protocol::XelaCanLayout;
 use crate::config::CanHandConfig;
 use crate::hand_can::{HandMessage, HandState};
 use crate::sensors::HwSensor;
-use slidetrack_core::{Clock, ErrorKind, TactileSource};
+use slidetrack_core::{ActuatorCommand, Clock, ErrorKind, TactileSource};
 use slidetrack_core::{FingerReading, PerFinger};
 
 /// A bus in memory: records what is sent, serves queued frames, and can
@@ -154,9 +154,9 @@ fn decode_all(bus: &MemoryBus) -> Vec<HandMessage> {
 fn the_hand_gets_saturated_set_points_heartbeats_and_a_release_on_drop() {
     let bus = Arc::new(MemoryBus::default());
     let mut hand = CanHand::with_bus(bus.clone(), &hand_cfg()).unwrap();
-    hand.command([1.0, -9.0, f64::NAN]).unwrap();
+    hand.command(&ActuatorCommand::FingerVolts([1.0, -9.0, f64::NAN])).unwrap();
     std::thread::sleep(Duration::from_millis(40));
-    hand.command([0.5, 0.5, 0.5]).unwrap();
+    hand.command(&ActuatorCommand::FingerVolts([0.5, 0.5, 0.5])).unwrap();
     drop(hand);
     let messages = decode_all(&bus);
     let setpoints: Vec<_> = messages.iter().filter(|m| matches!(m, HandMessage::Setpoint { .. })).collect();
@@ -179,12 +179,15 @@ fn the_hand_gets_saturated_set_points_heartbeats_and_a_release_on_drop() {
 fn a_vanished_bus_fails_the_command_and_still_tries_to_release() {
     let bus = Arc::new(MemoryBus::default());
     let mut hand = CanHand::with_bus(bus.clone(), &hand_cfg()).unwrap();
-    hand.command([1.0; 3]).unwrap();
+    hand.command(&ActuatorCommand::FingerVolts([1.0; 3])).unwrap();
     bus.unplug();
-    let e = hand.command([2.0; 3]).unwrap_err();
+    let e = hand.command(&ActuatorCommand::FingerVolts([2.0; 3])).unwrap_err();
     assert_eq!(e.kind, ErrorKind::Disconnected, "{e}");
     assert!(bus.sent().iter().any(|f| f.id == 0x302), "a release was sent after the failure");
-    assert_eq!(hand.command([0.0; 3]).unwrap_err().kind, ErrorKind::Disconnected);
+    assert_eq!(
+        hand.command(&ActuatorCommand::FingerVolts([0.0; 3])).unwrap_err().kind,
+        ErrorKind::Disconnected
+    );
     assert!(hand.release().is_err(), "the release is attempted and its failure reported");
 }
 
@@ -209,7 +212,7 @@ fn the_tactile_board_and_the_hand_work_on_vcan() {
         assert_eq!(tactile.read().unwrap().raw[0], [s, 2, 5]);
     }
     let mut hand = CanHand::open(&CanHandConfig { interface: name, ..hand_cfg() }).unwrap();
-    hand.command([1.0; 3]).unwrap();
+    hand.command(&ActuatorCommand::FingerVolts([1.0; 3])).unwrap();
     let ids = hand_cfg().ids();
     let got = (0..50).find_map(|_| {
         let f = board.recv(Duration::from_millis(100)).ok()??;

@@ -412,7 +412,8 @@ fn write_rows(
             }
         }
         if let Some(r) = rows.robot(i) {
-            let gripper = HandState { finger_travel: Vec::new(), opening: Some(r.finger_position_m) };
+            let gripper =
+                HandState { finger_travel: Vec::new(), opening: Some(r.finger_position_m), gripper: None };
             rec.log_json(&ch.gripper, t, t, seq, &gripper)?;
             log_value(rec, &ch.robot, t, seq, &RobotStateMessage::from(r))?;
             let ee = pose_of(t, BASE_FRAME, r.ee_position_in_base_m, r.ee_orientation_in_base_xyzw);

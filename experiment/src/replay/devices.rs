@@ -6,8 +6,9 @@ use std::sync::Arc;
 
 use slidetrack_control::ObserverError;
 use slidetrack_core::{
-    Camera, CameraIntrinsics, Clock, DecoderCounters, DeviceError, EncodedImage, ErrorKind, FingerVolts,
-    Frame, HandActuator, SimClock, SimTruth, TactileInfo, TactileSample, TactileSource, TruthSource,
+    ActuatorCommand, ActuatorSpec, Camera, CameraIntrinsics, Clock, DecoderCounters, DeviceError,
+    EncodedImage, ErrorKind, Frame, HandActuator, SimClock, SimTruth, TactileInfo, TactileSample,
+    TactileSource, TruthSource,
 };
 use slidetrack_session::{
     ArucoDetection, ChannelMessage, CompressedImage, SimTruth as TruthMsg, TactileDecoder, TactileRaw,
@@ -177,16 +178,16 @@ impl ReplayHand {
 }
 
 impl HandActuator for ReplayHand {
-    fn command(&mut self, _volts: FingerVolts) -> Result<(), DeviceError> {
+    fn spec(&self) -> ActuatorSpec {
+        ActuatorSpec::FingerVolts { max_volts: self.max_volts }
+    }
+
+    fn command(&mut self, _command: &ActuatorCommand) -> Result<(), DeviceError> {
         Ok(())
     }
 
     fn release(&mut self) -> Result<(), DeviceError> {
         Ok(())
-    }
-
-    fn max_volts(&self) -> f64 {
-        self.max_volts
     }
 
     fn device(&self) -> &str {

@@ -27,7 +27,9 @@ use slidetrack_control::{
     Baseline, ControlRecord, ObserverError, Protocol, ProtocolEvent, Rig, Tare, TrialObserver, TrialOutcome,
     run_trial,
 };
-use slidetrack_core::{DecoderCounters, Frame, Phase, SimTruth, TactileInfo, TactileSample, TimeNs};
+use slidetrack_core::{
+    ActuatorCommand, DecoderCounters, Frame, Phase, SimTruth, TactileInfo, TactileSample, TimeNs,
+};
 use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelMessage, CompressedImage, ProtocolEvent as EventMsg,
@@ -249,7 +251,12 @@ impl TrialObserver for ExtensionObserver<'_> {
         Ok(())
     }
 
-    fn on_command(&mut self, _t: TimeNs, _volts: [f64; 3], _saturated: bool) -> Result<(), ObserverError> {
+    fn on_command(
+        &mut self,
+        _t: TimeNs,
+        _command: &ActuatorCommand,
+        _limited: bool,
+    ) -> Result<(), ObserverError> {
         Ok(())
     }
 

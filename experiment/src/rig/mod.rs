@@ -13,8 +13,8 @@ use anyhow::{Context, Result, bail};
 use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig};
 use slidetrack_core::{
-    Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, FingerMap, FingerVolts, HandActuator,
-    HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
+    ActuatorCommand, ActuatorSpec, Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, FingerMap,
+    HandActuator, HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
@@ -86,16 +86,16 @@ pub enum HandUse {
 pub struct UndrivenHand;
 
 impl HandActuator for UndrivenHand {
-    fn command(&mut self, _volts: FingerVolts) -> Result<(), DeviceError> {
+    fn spec(&self) -> ActuatorSpec {
+        ActuatorSpec::FingerVolts { max_volts: 0.0 }
+    }
+
+    fn command(&mut self, _command: &ActuatorCommand) -> Result<(), DeviceError> {
         Err(DeviceError::new(ErrorKind::Other, "hand", "this rig does not drive the hand"))
     }
 
     fn release(&mut self) -> Result<(), DeviceError> {
         Ok(())
-    }
-
-    fn max_volts(&self) -> f64 {
-        0.0
     }
 
     fn device(&self) -> &str {

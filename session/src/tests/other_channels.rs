@@ -56,7 +56,11 @@ pub(super) fn log_other_channels(rec: &Recorder) {
         };
         log_one(rec, t, truth);
         log_one(rec, t, GroundTruthMeasurement { position: 0.002, rejected: i == 1, mahalanobis2: 0.5 });
-        log_one(rec, t, HandState { finger_travel: vec![0.001 * k, 0.002, 0.0], opening: Some(0.05) });
+        log_one(
+            rec,
+            t,
+            HandState { finger_travel: vec![0.001 * k, 0.002, 0.0], opening: Some(0.05), gripper: None },
+        );
         log_one(rec, t, TactileDerivative { values: vec![1.5, -2.25, 0.0, k] });
         log_one(rec, t, DekfEstimate(sliding(k)));
         log_one(rec, t, ArucoEstimate(sliding(k + 1.0)));
