@@ -150,6 +150,28 @@ fn training_learns_the_synthetic_slide() {
     assert!(se < 0.25 * base, "velocity error {se} vs zero-velocity baseline {base}");
 }
 
+/// The shards of a batch's gradient do not depend on the thread count, so
+/// neither does the model (before the fix, `--threads 1` summed one shard of
+/// 16 windows and `--threads 2` two of 8, and the models drifted apart).
+#[test]
+fn the_same_seed_gives_the_same_model_on_any_number_of_threads() {
+    let data: Vec<Sequence> = (0..4).map(|s| synthetic(200, s)).collect();
+    let trained = |threads: usize| {
+        let mut model = DekfModel::new(meta(2), &mut ChaCha8Rng::seed_from_u64(3));
+        let cfg = TrainConfig {
+            schedule: vec![Stage { length: 4, epochs: 2 }, Stage { length: 8, epochs: 1 }],
+            batch_size: 24,
+            threads,
+            ..TrainConfig::default()
+        };
+        train(&mut model, &data, &cfg, &mut |_| {});
+        model.params
+    };
+    let one = trained(1);
+    assert_eq!(one, trained(2), "1 and 2 threads");
+    assert_eq!(one, trained(3), "1 and 3 threads");
+}
+
 /// Timing of a thesis-sized training (run in release: `cargo test --release -p
 /// slidetrack-estimators thesis_sized -- --ignored --nocapture`).
 #[test]

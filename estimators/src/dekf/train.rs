@@ -131,19 +131,30 @@ fn epoch_windows(data: &[Sequence], length: usize, rng: &mut ChaCha8Rng) -> Vec<
     w
 }
 
-/// Gradient of a batch, split over `threads` shards; shard results are
-/// summed in order, so the result does not depend on scheduling.
+/// Windows per shard of a batch's gradient. Fixed, so that the shards, and
+/// with them the order in which floating-point sums are taken, are the same
+/// whatever the number of threads: the same seed gives the same model on
+/// any machine.
+const SHARD_WINDOWS: usize = 8;
+
+/// Gradient of a batch in shards of [`SHARD_WINDOWS`] windows, computed on
+/// `pool` (rayon's global pool when `None`) and summed in shard order, so
+/// the result depends neither on scheduling nor on the number of threads.
 fn parallel_grad(
     model: &DekfModel,
     data: &[Sequence],
     windows: &[Window],
     length: usize,
-    threads: usize,
+    pool: Option<&rayon::ThreadPool>,
 ) -> BatchGrad {
     use rayon::prelude::*;
-    let shard = windows.len().div_ceil(threads.max(1)).max(1);
-    let parts: Vec<BatchGrad> =
-        windows.par_chunks(shard).map(|w| batch_grad(model, data, w, length)).collect();
+    let shards = || -> Vec<BatchGrad> {
+        windows.par_chunks(SHARD_WINDOWS).map(|w| batch_grad(model, data, w, length)).collect()
+    };
+    let parts = match pool {
+        Some(pool) => pool.install(shards),
+        None => shards(),
+    };
     let mut total = BatchGrad {
         squared_error: 0.0,
         squared_error_pv: [0.0; 2],
@@ -222,7 +233,11 @@ pub fn train_with_selection(
     mut select: Option<Selection>,
 ) -> Vec<EpochReport> {
     let mut best: Option<(f64, Vec<f32>)> = None;
-    let threads = if cfg.threads == 0 { rayon::current_num_threads() } else { cfg.threads };
+    // A pool of its own only when a thread count is asked for (and can be
+    // had); the model is the same either way.
+    let pool = (cfg.threads > 0)
+        .then(|| rayon::ThreadPoolBuilder::new().num_threads(cfg.threads).build().ok())
+        .flatten();
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let mask = model.layout.trainable_mask();
     let mut adam = Adam { m: vec![0.0; model.params.len()], v: vec![0.0; model.params.len()], t: 0 };
@@ -243,7 +258,7 @@ pub fn train_with_selection(
             let (mut sq, mut states, mut skipped) = ([0.0f64; 2], 0usize, 0usize);
             for (b, chunk) in windows.chunks(cfg.batch_size.max(1)).enumerate() {
                 let batch = batch_windows(chunk, data, cfg, p0, &mut rng);
-                let mut g = parallel_grad(model, data, &batch, st.length, threads);
+                let mut g = parallel_grad(model, data, &batch, st.length, pool.as_ref());
                 // Loss (2.149): mean over steps, batch and state components.
                 let scale = 1.0 / (st.length * batch.len() * 2) as f64;
                 let norm: f64 =
