@@ -193,3 +193,17 @@ fn demo_runs_the_whole_pipeline() {
         assert!(dir.path().join(f).is_file(), "{f} missing:\n{out}");
     }
 }
+
+/// The same seed and sessions give the same model file, byte for byte,
+/// whatever `--threads` says (a wall time or a thread-dependent reduction
+/// order in the file would break it).
+#[test]
+fn training_on_one_or_two_threads_writes_the_same_file() {
+    let dir = tempdir();
+    let (sessions, one) = trained(dir.path());
+    let two = dir.path().join("two.safetensors");
+    let (a, b) = (sessions[0].to_str().unwrap(), sessions[1].to_str().unwrap());
+    let args = ["-q", "train", a, b, "--truth", "sim", "--channels", "xy", "--schedule", "2:1,8:1"];
+    ok(&[&args[..], &["--threads", "2", "--out", two.to_str().unwrap()]].concat());
+    assert!(std::fs::read(&one).unwrap() == std::fs::read(&two).unwrap(), "model files differ");
+}

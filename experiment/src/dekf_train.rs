@@ -216,9 +216,9 @@ pub fn fit_sessions(
         .then_some((cfg.schedule.len() / 2, &mut score as &mut dyn FnMut(&DekfModel) -> f64));
     let epochs = train_with_selection(&mut model, &data, &cfg, progress, select);
     let seconds = started.elapsed().as_secs_f64();
+    // No wall time in the file: the same seed and data give the same bytes.
     if let Some(training) = model.meta.training.as_object_mut() {
         training.insert("epochs".into(), json!(epochs));
-        training.insert("seconds".into(), json!(seconds));
     }
     Ok(Trained { model, epochs, seconds })
 }

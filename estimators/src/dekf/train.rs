@@ -35,7 +35,9 @@ pub struct TrainConfig {
     pub clip_norm: f64,
     /// Seed of the shuffling and of the initial-state draws.
     pub seed: u64,
-    /// Worker threads (0: as many as the machine has).
+    /// Worker threads (0: as many as the machine has). Not written to model
+    /// files: the model does not depend on it.
+    #[serde(skip_serializing)]
     pub threads: usize,
     /// Half-width of the uniform random shift of each window along the
     /// sliding axis (cm); 0 trains on the recorded positions only.
