@@ -38,8 +38,11 @@ fn a_simulated_session_is_labelled_within_the_targets_losslessly_and_idempotentl
     assert_eq!(summary["samples"].as_u64(), Some(scans.len() as u64));
     let rmse_p = summary["rmse"]["position_m"].as_f64().unwrap();
     let rmse_v = summary["rmse"]["velocity_mps"].as_f64().unwrap();
-    assert!(rmse_p <= 1e-3, "position RMSE {:.3} mm", rmse_p * 1e3);
-    assert!(rmse_v <= 5e-3, "velocity RMSE {:.2} mm/s", rmse_v * 1e3);
+    // About twice the errors measured on this session (0.04-0.08 mm,
+    // 0.12-0.17 mm/s), so that a worse smoother fails.
+    eprintln!("ground truth vs /sim/truth: {:.3} mm, {:.3} mm/s", rmse_p * 1e3, rmse_v * 1e3);
+    assert!(rmse_p <= 0.16e-3, "position RMSE {:.3} mm", rmse_p * 1e3);
+    assert!(rmse_v <= 0.35e-3, "velocity RMSE {:.3} mm/s", rmse_v * 1e3);
     assert!(summary["marker_positions"].as_u64().unwrap() > 500, "{summary}");
 
     // Nothing else changed: messages, metadata, attachments.

@@ -261,10 +261,14 @@ mod tests {
             let (y, tape) = forward(q, &layout.motion, with_tangents(&x), 3, true);
             (y.iter().zip(w.iter()).map(|(a, b)| f64::from(*a) * f64::from(*b)).sum(), tape.unwrap())
         };
-        // A sample of parameters in every layer: first weights, biases, the output layer.
-        let mut checked = 0;
+        // A sample of parameters in every layer, all inside the layer (an
+        // index past it reads another network's parameter: 0 against 0):
+        // the first, a middle and the last weight, the first and last bias.
+        let (mut checked, mut nonzero) = (0, 0);
         for l in &layout.motion.layers {
-            for idx in [l.weight, l.weight + l.inp + 1, l.bias, l.bias + l.out - 1] {
+            let weights = l.inp * l.out;
+            let middle = l.weight + (l.inp + 1) % weights;
+            for idx in [l.weight, middle, l.weight + weights - 1, l.bias, l.bias + l.out - 1] {
                 let mut up = p.clone();
                 let mut down = p.clone();
                 let eps = 1e-2f32;
@@ -281,8 +285,11 @@ mod tests {
                     "param {idx}: {numeric} vs {analytic}"
                 );
                 checked += 1;
+                nonzero += usize::from(analytic.abs() > 1e-6);
             }
         }
-        assert!(checked >= 36, "only {checked} of 44 parameters away from a kink");
+        let total = 5 * layout.motion.layers.len();
+        assert!(checked >= total * 4 / 5, "only {checked} of {total} parameters away from a kink");
+        assert!(nonzero >= checked / 2, "only {nonzero} of {checked} gradients are not zero");
     }
 }
