@@ -61,14 +61,18 @@ impl Wide {
     }
 }
 
-fn dot(a: &Vector, b: &Vector) -> f32 {
+/// `a . b` in eight lanes (vectorised), plus the elements past the last
+/// whole group of eight when the width is not a multiple of it.
+fn dot(a: &[f32], b: &[f32]) -> f32 {
     let mut acc = [0.0f32; 8];
-    for (ca, cb) in a.chunks_exact(8).zip(b.chunks_exact(8)) {
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let tail: f32 = ca.remainder().iter().zip(cb.remainder()).map(|(x, y)| x * y).sum();
+    for (ca, cb) in ca.zip(cb) {
         for l in 0..8 {
             acc[l] += ca[l] * cb[l];
         }
     }
-    acc.iter().sum()
+    acc.iter().sum::<f32>() + tail
 }
 
 fn relu(y: &mut Vector) {
@@ -181,6 +185,14 @@ fn residual_back(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn dot_counts_the_elements_past_the_last_group_of_eight() {
+        let a: Vec<f32> = (0..13).map(|i| i as f32 * 0.5 - 2.0).collect();
+        let b: Vec<f32> = (0..13).map(|i| 1.0 + i as f32).collect();
+        let naive: f32 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
+        assert!((super::dot(&a, &b) - naive).abs() < 1e-4, "{} vs {naive}", super::dot(&a, &b));
+    }
+
     use super::*;
     use crate::dekf::mlp::forward;
     use crate::dekf::params::Layout;
