@@ -13,9 +13,13 @@
 //! - Pads: overdamped, `b dx/dt = u - (F_n,left + F_n,right) / 2`, both pads
 //!   at the same `x` (one motor, a symmetric linkage), integrated by implicit
 //!   Euler (Newton iterations) so that the stiff servo and pad stay stable.
-//! - Pad contact: Hertz, `F_n = k delta^1.5` with `delta = x - gap + h` (m),
+//!   The setpoint never runs more than `F_lim / k_s` ahead of (or behind)
+//!   the pads (anti-windup: a gripper stopped on an object opens at once).
+//! - Pad contact: Hertz, `F = k delta^1.5` with `delta = x - gap + h` (m),
 //!   `gap = (stroke - contact_opening) / 2`, `h` the texture height under the
-//!   pad. At rest the grip force (each pad's normal force) is `u`, never
+//!   pad. The object is free across the grip, so it centres itself until both
+//!   pads press alike: each pad's normal force is the mean of the two, and
+//!   each pad is indented as much. At rest that grip force is `u`, never
 //!   above `F_lim`.
 //! - Motor current: `I = current_ma_per_n |u|` (mA).
 
@@ -215,13 +219,15 @@ impl GripperState {
             }
         }
         x = x.clamp(0.0, cfg.stroke_m / 2.0);
+        let windup_m = 2.0 * limit_n / cfg.servo_stiffness_n_per_m;
+        self.setpoint_closure_m = self.setpoint_closure_m.clamp(2.0 * x - windup_m, 2.0 * x + windup_m);
         self.pad_speed_mps = (x - x0) / dt_s;
         self.pad_travel_m = x;
-        self.servo_n = servo(cfg.servo_stiffness_n_per_m, x_set - x, limit_n).0;
-        for (i, offset) in offsets.iter().enumerate() {
-            self.indentation_m[i] = (x + offset).max(0.0);
-            self.normal_n[i] = hertz(cfg.pad_contact_stiffness_n_per_m15, self.indentation_m[i]).0;
-        }
+        self.servo_n = servo(cfg.servo_stiffness_n_per_m, self.setpoint_closure_m / 2.0 - x, limit_n).0;
+        let grip_n = mean_contact(cfg, x, offsets).0;
+        let indentation_m = (grip_n / cfg.pad_contact_stiffness_n_per_m15).powf(2.0 / 3.0);
+        self.normal_n = [grip_n; 2];
+        self.indentation_m = [indentation_m; 2];
     }
 
     /// The gripper's status registers: object detection (`gOBJ`), position

@@ -108,6 +108,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let clock: Arc<dyn Clock> =
         if spec.realtime { Arc::new(WallClock::start()) } else { Arc::new(SimClock::new()) };
     let object = spec.object;
+    spec.rig.sim.check_object(object)?;
     let sim = SimDevices::new(&spec.rig.sim, object, spec.seed, spec.trial, clock.clone());
     let tactile_info = sim.tactile.info();
     let geometry = &spec.rig.geometry;
