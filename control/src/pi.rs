@@ -1,5 +1,5 @@
-//! The PI law (6.9) of one finger, with voltage saturation, a rate limit and
-//! back-calculation anti-windup.
+//! The PI law (6.9), with output saturation, a rate limit and
+//! back-calculation anti-windup: a finger's voltage or a gripper's position.
 
 use serde::{Deserialize, Serialize};
 
@@ -32,57 +32,93 @@ impl Default for PiConfig {
     }
 }
 
-/// One finger's PI controller.
+/// The PI law in whatever unit its output drives (V for a finger's joint,
+/// position steps for a gripper), with its limits in that unit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PiLaw {
+    /// Proportional gain (output per count of z error).
+    pub kp: f64,
+    /// Integral gain (output per count-second).
+    pub ki: f64,
+    /// Smallest output.
+    pub min: f64,
+    /// Largest output.
+    pub max: f64,
+    /// Largest change of the output per second.
+    pub rate_limit_per_s: f64,
+    /// Anti-windup tracking time constant (s).
+    pub tracking_time_s: f64,
+}
+
+impl From<&PiConfig> for PiLaw {
+    fn from(c: &PiConfig) -> PiLaw {
+        PiLaw {
+            kp: c.kp_volt_per_count,
+            ki: c.ki_volt_per_count_s,
+            min: -c.max_volts,
+            max: c.max_volts,
+            rate_limit_per_s: c.rate_limit_volt_per_s,
+            tracking_time_s: c.tracking_time_s,
+        }
+    }
+}
+
+/// One PI controller (a finger's joint voltage, or a gripper's position
+/// beyond contact).
 ///
-/// `V = k_p e + I`, `I` integrating `k_i e` (eq. 6.9). When the output
+/// `u = k_p e + I`, `I` integrating `k_i e` (eq. 6.9). When the output
 /// saturates or hits the rate limit, the integral is pulled towards the
 /// applied output (back-calculation), so it never winds up.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PiController {
-    cfg: PiConfig,
-    integral_v: f64,
-    output_v: f64,
+    law: PiLaw,
+    integral: f64,
+    output: f64,
 }
 
 /// The result of one controller step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PiOutput {
-    /// Voltage to apply (V).
-    pub volts: f64,
+    /// Output to apply (V for a finger, steps for a gripper).
+    pub value: f64,
     /// True when saturation or the rate limit changed the PI output.
     pub limited: bool,
 }
 
 impl PiController {
-    /// A controller at rest (zero integral, zero output).
+    /// A finger's voltage controller at rest (zero integral, zero output).
     pub fn new(cfg: PiConfig) -> PiController {
-        PiController { cfg, integral_v: 0.0, output_v: 0.0 }
+        PiController::with_law(PiLaw::from(&cfg))
     }
 
-    /// Starts from a given applied voltage without a bump: the integral takes
-    /// the voltage, so the first output equals `volts` plus the P term.
-    pub fn reset_to(&mut self, volts: f64) {
-        self.integral_v = volts;
-        self.output_v = volts;
+    /// A controller of `law` at rest.
+    pub fn with_law(law: PiLaw) -> PiController {
+        PiController { law, integral: 0.0, output: 0.0 }
     }
 
-    /// The integral term (V).
-    pub fn integral_v(&self) -> f64 {
-        self.integral_v
+    /// Starts from a given applied output without a bump: the integral takes
+    /// the output, so the first output equals `value` plus the P term.
+    pub fn reset_to(&mut self, value: f64) {
+        self.integral = value;
+        self.output = value;
+    }
+
+    /// The integral term (output units).
+    pub fn integral(&self) -> f64 {
+        self.integral
     }
 
     /// One step with the error `e = desired - achieved` (counts) over `dt_s`.
     pub fn step(&mut self, error_counts: f64, dt_s: f64) -> PiOutput {
-        let c = &self.cfg;
+        let c = &self.law;
         let error = if error_counts.is_finite() { error_counts } else { 0.0 };
-        self.integral_v += c.ki_volt_per_count_s * error * dt_s;
-        let raw = c.kp_volt_per_count * error + self.integral_v;
-        let max_step = c.rate_limit_volt_per_s * dt_s;
-        let applied =
-            raw.clamp(self.output_v - max_step, self.output_v + max_step).clamp(-c.max_volts, c.max_volts);
-        self.integral_v += (applied - raw) * (dt_s / c.tracking_time_s).min(1.0);
-        self.output_v = applied;
-        PiOutput { volts: applied, limited: (applied - raw).abs() > 1e-12 }
+        self.integral += c.ki * error * dt_s;
+        let raw = c.kp * error + self.integral;
+        let max_step = c.rate_limit_per_s * dt_s;
+        let applied = raw.clamp(self.output - max_step, self.output + max_step).clamp(c.min, c.max);
+        self.integral += (applied - raw) * (dt_s / c.tracking_time_s).min(1.0);
+        self.output = applied;
+        PiOutput { value: applied, limited: (applied - raw).abs() > 1e-12 }
     }
 }
 
@@ -108,7 +144,7 @@ mod tests {
             let e = (k as f64 * 0.3).sin();
             integral += e * 0.01;
             let out = pi.step(e, 0.01);
-            assert!((out.volts - (0.5 * e + 2.0 * integral)).abs() < 1e-12);
+            assert!((out.value - (0.5 * e + 2.0 * integral)).abs() < 1e-12);
             assert!(!out.limited);
         }
     }
@@ -119,13 +155,13 @@ mod tests {
         let mut pi = PiController::new(cfg);
         for _ in 0..1000 {
             let out = pi.step(10.0, 0.01);
-            assert!(out.volts <= 1.0);
+            assert!(out.value <= 1.0);
         }
         // The integral stays near the saturation level, so a reversed error
         // pulls the output off the limit at once.
-        assert!(pi.integral_v() < 1.0 + 10.0 * 0.5, "{}", pi.integral_v());
+        assert!(pi.integral() < 1.0 + 10.0 * 0.5, "{}", pi.integral());
         let out = pi.step(-10.0, 0.01);
-        assert!(out.volts < 0.0, "{}", out.volts);
+        assert!(out.value < 0.0, "{}", out.value);
     }
 
     #[test]
@@ -133,12 +169,12 @@ mod tests {
         let cfg = PiConfig { rate_limit_volt_per_s: 10.0, ..unlimited() };
         let mut pi = PiController::new(cfg);
         let out = pi.step(100.0, 0.01);
-        assert!((out.volts - 0.1).abs() < 1e-12 && out.limited);
+        assert!((out.value - 0.1).abs() < 1e-12 && out.limited);
     }
 
     #[test]
     fn nan_error_is_ignored() {
         let mut pi = PiController::new(unlimited());
-        assert_eq!(pi.step(f64::NAN, 0.01).volts, 0.0);
+        assert_eq!(pi.step(f64::NAN, 0.01).value, 0.0);
     }
 }

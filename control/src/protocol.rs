@@ -6,10 +6,13 @@
 //! the requested duration, release. Any safety limit aborts with a release.
 
 use serde::{Deserialize, Serialize};
-use slidetrack_core::{AXES, ActuatorCommand, DeviceError, Finger, FingerMap, Phase, TactileSample, TimeNs};
+use slidetrack_core::{
+    AXES, ActuatorCommand, ActuatorSpec, DeviceError, Finger, FingerMap, Phase, TactileSample, TimeNs,
+};
 
+use crate::gripper::{GripperControlConfig, GripperGrasp};
 use crate::pi::{PiConfig, PiController};
-use crate::reference::{GraspProfile, partition};
+use crate::reference::{GraspProfile, partition, partition_two_opposed};
 use crate::safety::{AbortReason, SafetyConfig};
 
 /// Settings of the protocol that do not depend on the object (the
@@ -33,8 +36,10 @@ pub struct ProtocolSettings {
     pub settle_duration_s: f64,
     /// Duration of the release at the end (s).
     pub release_duration_s: f64,
-    /// PI gains and limits, the same for every finger.
+    /// PI gains and limits, the same for every finger (voltage-driven hands).
     pub pi: PiConfig,
+    /// The grasp on a position-controlled gripper.
+    pub gripper: GripperControlConfig,
     /// Safety limits.
     pub safety: SafetyConfig,
 }
@@ -51,6 +56,7 @@ impl Default for ProtocolSettings {
             settle_duration_s: 2.0,
             release_duration_s: 0.5,
             pi: PiConfig::default(),
+            gripper: GripperControlConfig::default(),
             safety: SafetyConfig::default(),
         }
     }
@@ -132,6 +138,32 @@ pub struct ScanOutput {
     pub events: Vec<ProtocolEvent>,
 }
 
+/// What the controller drives.
+enum Actuation {
+    /// One PI voltage controller per finger (thumb, index, middle).
+    Fingers([PiController; 3]),
+    /// A parallel gripper: its pads are the thumb and index readings.
+    Gripper(Box<GripperGrasp>),
+}
+
+impl Actuation {
+    /// The fingers whose readings the controller uses.
+    fn fingers(&self) -> &'static [usize] {
+        match self {
+            Actuation::Fingers(_) => &[0, 1, 2],
+            Actuation::Gripper(_) => &[0, 1],
+        }
+    }
+
+    /// What the hand does while the baseline is taken: nothing, open.
+    fn idle(&self) -> ActuatorCommand {
+        match self {
+            Actuation::Fingers(_) => ActuatorCommand::FingerVolts([0.0; 3]),
+            Actuation::Gripper(g) => g.approach(),
+        }
+    }
+}
+
 /// The protocol's state.
 pub struct Protocol {
     cfg: ProtocolConfig,
@@ -145,7 +177,7 @@ pub struct Protocol {
     baseline_sum: Baseline,
     baseline_n: u32,
     baseline: Option<Baseline>,
-    controllers: [PiController; 3],
+    actuation: Actuation,
     touching: [bool; 3],
     above_threshold: [u32; 3],
     ramp_from_counts: f64,
@@ -156,10 +188,25 @@ pub struct Protocol {
 }
 
 impl Protocol {
-    /// A protocol about to zero the baseline, reading each finger's tactile
-    /// values through `fingers`.
+    /// A protocol for a voltage-driven hand about to zero the baseline,
+    /// reading each finger's tactile values through `fingers`.
     pub fn new(cfg: ProtocolConfig, fingers: FingerMap) -> Protocol {
-        let controllers = [0, 1, 2].map(|_| PiController::new(cfg.settings.pi.clone()));
+        let max_volts = cfg.settings.pi.max_volts;
+        Protocol::for_actuator(cfg, fingers, &ActuatorSpec::FingerVolts { max_volts })
+    }
+
+    /// A protocol for the hand `actuator` describes: one PI voltage law per
+    /// finger, or, on a gripper, one PI law on the position request whose
+    /// pads are the thumb and index readings.
+    pub fn for_actuator(cfg: ProtocolConfig, fingers: FingerMap, actuator: &ActuatorSpec) -> Protocol {
+        let actuation = match actuator {
+            ActuatorSpec::FingerVolts { .. } => {
+                Actuation::Fingers([0, 1, 2].map(|_| PiController::new(cfg.settings.pi.clone())))
+            }
+            ActuatorSpec::Gripper(spec) => {
+                Actuation::Gripper(Box::new(GripperGrasp::new(cfg.settings.gripper.clone(), spec.clone())))
+            }
+        };
         let mut watched: Vec<(usize, Finger)> = Vec::new();
         for f in Finger::ALL {
             for taxel in fingers.taxels(f) {
@@ -179,7 +226,7 @@ impl Protocol {
             baseline_sum: Vec::new(),
             baseline_n: 0,
             baseline: None,
-            controllers,
+            actuation,
             touching: [false; 3],
             above_threshold: [0; 3],
             ramp_from_counts: 0.0,
@@ -306,7 +353,7 @@ impl Protocol {
                 message: "zeroing the tactile baseline with the hand open".into(),
                 abort: None,
             });
-            out.action = Some(HandAction::Command(ActuatorCommand::FingerVolts([0.0; 3])));
+            out.action = Some(HandAction::Command(self.actuation.idle()));
         }
         if let Some(reason) = self.check_size(sample).or_else(|| self.check_saturation(sample)) {
             out.events.extend(self.abort(reason));
@@ -355,53 +402,39 @@ impl Protocol {
     }
 
     fn control_tick(&mut self, t: TimeNs, z: [f64; 3], dt_s: f64, out: &mut ScanOutput) {
-        let c = &self.cfg.settings;
-        let threshold = c.contact_threshold_counts;
-        let (reference, desired, volts) = match self.phase {
-            Phase::Close => {
-                let mut volts = [0.0; 3];
-                let desired = [threshold; 3];
-                for f in 0..3 {
-                    // Two ticks in a row, so that a single spike is not a touch.
-                    self.above_threshold[f] = if z[f] >= threshold { self.above_threshold[f] + 1 } else { 0 };
-                    if !self.touching[f] && self.above_threshold[f] >= 2 {
-                        self.touching[f] = true;
-                        self.controllers[f].reset_to(c.close_volts * 0.5);
-                    }
-                    volts[f] = if self.touching[f] {
-                        self.controllers[f].step(desired[f] - z[f], dt_s).volts
-                    } else {
-                        c.close_volts
-                    };
-                }
-                if self.touching.iter().all(|&b| b) {
-                    self.ramp_from_counts = 2.0 * threshold;
-                    self.enter(Phase::Ramp, t, "every finger touches; raising the grasp".into(), out);
-                } else if self.in_phase_s(t) > c.close_timeout_s {
-                    let fingers = Finger::ALL.into_iter().filter(|f| !self.touching[f.index()]).collect();
-                    out.events
-                        .extend(self.abort(AbortReason::NoContact { fingers, timeout_s: c.close_timeout_s }));
-                    out.action = Some(HandAction::Release);
-                    return;
-                }
-                (threshold, desired, volts)
-            }
+        let threshold = self.cfg.settings.contact_threshold_counts;
+        let (reference, desired, command) = match self.phase {
+            Phase::Close => match self.close_tick(t, z, dt_s, out) {
+                Some(command) => (threshold, [threshold; 3], command),
+                None => return,
+            },
             Phase::Ramp | Phase::Settle | Phase::Cycles => {
                 let reference = self.grasp_reference(t, out);
                 if self.phase == Phase::Release {
                     out.action = Some(HandAction::Release);
                     return;
                 }
+                let used = self.actuation.fingers();
                 if matches!(self.phase, Phase::Settle | Phase::Cycles)
-                    && z.iter().all(|&v| v < 0.5 * threshold)
+                    && used.iter().all(|&f| z[f] < 0.5 * threshold)
                 {
                     out.events.extend(self.abort(AbortReason::ContactLost));
                     out.action = Some(HandAction::Release);
                     return;
                 }
-                let desired = partition(reference);
-                let volts = [0, 1, 2].map(|f| self.controllers[f].step(desired[f] - z[f], dt_s).volts);
-                (reference, desired, volts)
+                let (desired, command) = match &mut self.actuation {
+                    Actuation::Fingers(pi) => {
+                        let desired = partition(reference);
+                        let volts = [0, 1, 2].map(|f| pi[f].step(desired[f] - z[f], dt_s).value);
+                        (desired, ActuatorCommand::FingerVolts(volts))
+                    }
+                    Actuation::Gripper(g) => {
+                        let desired = partition_two_opposed(reference);
+                        let achieved = 0.5 * (z[0] + z[1]);
+                        (desired, g.grasp(reference - achieved, dt_s))
+                    }
+                };
+                (reference, desired, command)
             }
             Phase::Release => {
                 if self.in_phase_s(t) >= self.cfg.settings.release_duration_s {
@@ -417,7 +450,49 @@ impl Protocol {
             desired_counts: desired,
             achieved_counts: z,
         });
-        out.action = Some(HandAction::Command(ActuatorCommand::FingerVolts(volts)));
+        out.action = Some(HandAction::Command(command));
+    }
+
+    /// One tick of closing until every finger the controller uses touches:
+    /// the command, or `None` when the trial aborted (no contact in time).
+    fn close_tick(
+        &mut self,
+        t: TimeNs,
+        z: [f64; 3],
+        dt_s: f64,
+        out: &mut ScanOutput,
+    ) -> Option<ActuatorCommand> {
+        let c = &self.cfg.settings;
+        let threshold = c.contact_threshold_counts;
+        let used = self.actuation.fingers();
+        for &f in used {
+            // Two ticks in a row, so that a single spike is not a touch.
+            self.above_threshold[f] = if z[f] >= threshold { self.above_threshold[f] + 1 } else { 0 };
+            if !self.touching[f] && self.above_threshold[f] >= 2 {
+                self.touching[f] = true;
+                if let Actuation::Fingers(pi) = &mut self.actuation {
+                    pi[f].reset_to(c.close_volts * 0.5);
+                }
+            }
+        }
+        let all_touch = used.iter().all(|&f| self.touching[f]);
+        let command = match &mut self.actuation {
+            Actuation::Fingers(pi) => ActuatorCommand::FingerVolts([0, 1, 2].map(|f| {
+                if self.touching[f] { pi[f].step(threshold - z[f], dt_s).value } else { c.close_volts }
+            })),
+            Actuation::Gripper(g) => g.close(all_touch, dt_s),
+        };
+        if all_touch {
+            self.ramp_from_counts = 2.0 * threshold;
+            self.enter(Phase::Ramp, t, "every finger touches; raising the grasp".into(), out);
+        } else if self.in_phase_s(t) > c.close_timeout_s {
+            let timeout_s = c.close_timeout_s;
+            let fingers = used.iter().filter(|&&f| !self.touching[f]).map(|&f| Finger::ALL[f]).collect();
+            out.events.extend(self.abort(AbortReason::NoContact { fingers, timeout_s }));
+            out.action = Some(HandAction::Release);
+            return None;
+        }
+        Some(command)
     }
 
     /// The grasp-strength reference now, moving through ramp, settle and

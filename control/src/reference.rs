@@ -36,6 +36,14 @@ pub fn partition(grasp_counts: f64) -> [f64; 3] {
     [grasp_counts, 0.5 * grasp_counts, 0.5 * grasp_counts]
 }
 
+/// The grasp partition (6.10)-(6.11) for two opposed pads (a parallel
+/// gripper): each pad bears the whole grasp strength. Returns `[thumb,
+/// index, middle]` desired z (counts); a gripper's middle entry repeats its
+/// index pad.
+pub fn partition_two_opposed(grasp_counts: f64) -> [f64; 3] {
+    [grasp_counts; 3]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -55,5 +63,6 @@ mod tests {
     #[test]
     fn partition_follows_eq_6_11() {
         assert_eq!(partition(1000.0), [1000.0, 500.0, 500.0]);
+        assert_eq!(partition_two_opposed(1000.0), [1000.0; 3]);
     }
 }

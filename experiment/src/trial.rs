@@ -139,7 +139,7 @@ pub fn record_trial_with<'a>(
         observer = observer.with_extension(make(&recorder.logger(), &tactile_info)?);
     }
     let fingers = tactile_info.finger_map().context("the tactile source's layout")?;
-    let mut protocol = protocol_for(spec.rig, object, spec.duration_s, fingers);
+    let mut protocol = protocol_for(spec.rig, object, spec.duration_s, fingers, &rig.hand.spec());
     let outcome = run_trial(&mut rig, &mut protocol, &mut observer, stop);
     let stats = observer.stats().clone();
     drop(observer);

@@ -164,22 +164,22 @@ impl TruthSource for ReplayTruth {
 }
 
 /// The hand of a replay: takes the commands and releases, moves nothing.
-/// Its voltage range is the recorded rig's, so the commands it records are
-/// saturated as they were.
+/// It accepts what the recorded rig's hand accepted, so the commands it
+/// records are limited as they were.
 pub struct ReplayHand {
-    max_volts: f64,
+    spec: ActuatorSpec,
 }
 
 impl ReplayHand {
-    /// A hand accepting `±max_volts`.
-    pub fn new(max_volts: f64) -> ReplayHand {
-        ReplayHand { max_volts }
+    /// A hand accepting what `spec` says.
+    pub fn new(spec: ActuatorSpec) -> ReplayHand {
+        ReplayHand { spec }
     }
 }
 
 impl HandActuator for ReplayHand {
     fn spec(&self) -> ActuatorSpec {
-        ActuatorSpec::FingerVolts { max_volts: self.max_volts }
+        self.spec.clone()
     }
 
     fn command(&mut self, _command: &ActuatorCommand) -> Result<(), DeviceError> {

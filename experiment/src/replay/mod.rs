@@ -45,7 +45,7 @@ use crate::channels::recorded_tactile;
 use crate::dekf_run::DekfStage;
 use crate::marker::MarkerSource;
 use crate::observer::TrialExtension;
-use crate::rig::{RigSetup, TrialSpec, protocol_for};
+use crate::rig::{RigSetup, TrialSpec, configured_actuator, protocol_for};
 use crate::rig_config::RigConfig;
 use crate::trial::CYCLES_DURATION_KEY;
 
@@ -171,7 +171,7 @@ impl ReplaySession {
         };
         let rig = Rig {
             tactile: Box::new(tactile),
-            hand: Box::new(ReplayHand::new(hand_max_volts(&self.rig))),
+            hand: Box::new(ReplayHand::new(configured_actuator(&self.rig))),
             camera,
             clock: shared_clock,
             truth,
@@ -191,15 +191,13 @@ impl ReplaySession {
     /// The protocol the recording ran.
     pub fn protocol(&self) -> Result<Protocol> {
         let fingers = self.tactile.finger_map().context("the recorded taxel layout")?;
-        Ok(protocol_for(&self.rig, &self.object, self.cycles_duration_s, fingers))
-    }
-}
-
-/// The voltage range of the recorded rig's hand.
-fn hand_max_volts(rig: &RigConfig) -> f64 {
-    match rig.hw.as_ref().map(|hw| &hw.hand) {
-        Some(slidetrack_drivers::config::HandDevice::Can(c)) => c.max_volts,
-        _ => rig.sim.max_volts,
+        Ok(protocol_for(
+            &self.rig,
+            &self.object,
+            self.cycles_duration_s,
+            fingers,
+            &configured_actuator(&self.rig),
+        ))
     }
 }
 

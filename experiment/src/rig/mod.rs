@@ -173,16 +173,18 @@ pub fn marker_tracking(
 }
 
 /// The protocol of a trial of `object` on `rig`, whose sliding cycles last
-/// `cycles_duration_s` seconds, reading the fingers through `fingers`: the
-/// same for a live trial and its replay.
+/// `cycles_duration_s` seconds, reading the fingers through `fingers` and
+/// commanding a hand that accepts what `actuator` says: the same for a live
+/// trial and its replay.
 pub fn protocol_for(
     rig: &RigConfig,
     object: &ObjectConfig,
     cycles_duration_s: f64,
     fingers: FingerMap,
+    actuator: &ActuatorSpec,
 ) -> Protocol {
     let e = &object.experiment;
-    Protocol::new(
+    Protocol::for_actuator(
         ProtocolConfig {
             settings: rig.protocol.clone(),
             profile: GraspProfile {
@@ -195,7 +197,19 @@ pub fn protocol_for(
             cycles_duration_s,
         },
         fingers,
+        actuator,
     )
+}
+
+/// What the hand of `rig` accepts, from its configuration (a replay has no
+/// hand to ask).
+pub fn configured_actuator(rig: &RigConfig) -> ActuatorSpec {
+    match rig.hw.as_ref().map(|hw| &hw.hand) {
+        Some(slidetrack_drivers::config::HandDevice::Can(c)) => {
+            ActuatorSpec::FingerVolts { max_volts: c.max_volts }
+        }
+        _ => ActuatorSpec::FingerVolts { max_volts: rig.sim.max_volts },
+    }
 }
 
 /// The rig of `spec`, simulated or real, once it is clear that its session
