@@ -17,7 +17,7 @@ use slidetrack_core::{
     HandActuator, HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
+use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use hw::describe;
@@ -208,6 +208,7 @@ pub fn configured_actuator(rig: &RigConfig) -> ActuatorSpec {
         Some(slidetrack_drivers::config::HandDevice::Can(c)) => {
             ActuatorSpec::FingerVolts { max_volts: c.max_volts }
         }
+        _ if rig.sim.hand == HandKind::Gripper => ActuatorSpec::Gripper(rig.sim.gripper.spec()),
         _ => ActuatorSpec::FingerVolts { max_volts: rig.sim.max_volts },
     }
 }
