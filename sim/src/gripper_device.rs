@@ -6,7 +6,7 @@ use slidetrack_core::{
     HandActuator,
 };
 
-use super::rig::{SharedWorld, lock};
+use super::shared_world::{SharedWorld, lock};
 
 const DEVICE: &str = "sim gripper";
 

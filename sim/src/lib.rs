@@ -13,6 +13,7 @@ mod gripper_device;
 mod object;
 pub mod rgbd;
 mod rig;
+mod shared_world;
 mod surface;
 mod tactile_model;
 mod world;

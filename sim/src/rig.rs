@@ -1,32 +1,22 @@
 //! The simulated devices: each implements its driver trait on a shared
 //! [`SimWorld`], advancing it on the session clock.
 
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex};
 
 use slidetrack_core::{
-    ActuatorCommand, ActuatorSpec, Clock, DeviceError, ErrorKind, Finger, FingerReading, HandActuator,
-    HandMonitor, HandStatus, PerFinger, SensorLayout, SimTruth, TactileInfo, TactileLayout, TactileSample,
-    TactileSource, TimeNs, TruthSource, saturate,
+    ActuatorCommand, ActuatorSpec, Clock, DeviceError, Finger, FingerReading, HandActuator, HandMonitor,
+    HandStatus, PerFinger, SensorLayout, SimTruth, TactileInfo, TactileLayout, TactileSample, TactileSource,
+    TimeNs, TruthSource, saturate,
 };
 
 use super::config::SimRigConfig;
 use super::gripper::HandKind;
 use super::gripper_device::SimGripper;
 use super::object::ObjectConfig;
+pub use super::shared_world::SharedWorld;
+use super::shared_world::lock;
 use super::tactile_model::PatchConfig;
 use super::world::SimWorld;
-
-/// The world shared by the simulated devices of one trial.
-pub type SharedWorld = Arc<Mutex<SimWorld>>;
-
-pub(crate) fn lock<'a>(
-    world: &'a SharedWorld,
-    device: &str,
-) -> Result<MutexGuard<'a, SimWorld>, DeviceError> {
-    world.lock().map_err(|_| {
-        DeviceError::new(ErrorKind::Fault, device, "simulation state poisoned by an earlier panic")
-    })
-}
 
 /// The simulated devices of one trial.
 pub struct SimDevices {
