@@ -95,6 +95,7 @@ impl RigConfig {
             self.protocol.control_rate_hz,
             s.tactile_rate_hz
         );
+        s.validate()?;
         self.camera.validate().context("camera")?;
         if let Some(hw) = &self.hw {
             hw.validate()?;

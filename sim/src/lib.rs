@@ -8,9 +8,12 @@ mod config;
 mod episodes;
 mod finger;
 mod friction;
+mod gripper;
+mod gripper_device;
 mod object;
 pub mod rgbd;
 mod rig;
+mod shared_world;
 mod surface;
 mod tactile_model;
 mod world;
@@ -21,10 +24,14 @@ pub use config::SimRigConfig;
 pub use episodes::{Episode, sliding_episodes};
 pub use finger::{FingerConfig, FingerState};
 pub use friction::{LuGreContact, LuGreParams};
+pub use gripper::{GripperConfig, GripperState, HandKind};
+pub use gripper_device::SimGripper;
 pub use object::{
     BUILTIN_OBJECTS, ExperimentSettings, FrictionConfig, ObjectConfig, ObjectGeometry, TrialJitter,
 };
-pub use rig::{SharedWorld, SimDevices, SimHand, SimHandMonitor, SimTactile, SimTruthTap, sim_tactile_info};
+pub use rig::{
+    SharedWorld, SimActuator, SimDevices, SimHand, SimHandMonitor, SimTactile, SimTruthTap, sim_tactile_info,
+};
 pub use surface::{SurfaceConfig, SurfaceProfile};
 pub use tactile_model::{ContactDeformation, PatchConfig, TactileModelConfig, TactileModule};
 pub use world::{SimWorld, Stream, stream_seed};

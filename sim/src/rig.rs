@@ -1,34 +1,29 @@
 //! The simulated devices: each implements its driver trait on a shared
 //! [`SimWorld`], advancing it on the session clock.
 
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex};
 
 use slidetrack_core::{
-    ActuatorCommand, ActuatorSpec, Clock, DeviceError, ErrorKind, Finger, FingerReading, HandActuator,
-    HandMonitor, HandStatus, PerFinger, SensorLayout, SimTruth, TactileInfo, TactileLayout, TactileSample,
-    TactileSource, TimeNs, TruthSource, saturate,
+    ActuatorCommand, ActuatorSpec, Clock, DeviceError, Finger, FingerReading, HandActuator, HandMonitor,
+    HandStatus, PerFinger, SensorLayout, SimTruth, TactileInfo, TactileLayout, TactileSample, TactileSource,
+    TimeNs, TruthSource, saturate,
 };
 
 use super::config::SimRigConfig;
+use super::gripper::HandKind;
+use super::gripper_device::SimGripper;
 use super::object::ObjectConfig;
+pub use super::shared_world::SharedWorld;
+use super::shared_world::lock;
 use super::tactile_model::PatchConfig;
 use super::world::SimWorld;
 
-/// The world shared by the simulated devices of one trial.
-pub type SharedWorld = Arc<Mutex<SimWorld>>;
-
-fn lock<'a>(world: &'a SharedWorld, device: &str) -> Result<MutexGuard<'a, SimWorld>, DeviceError> {
-    world.lock().map_err(|_| {
-        DeviceError::new(ErrorKind::Fault, device, "simulation state poisoned by an earlier panic")
-    })
-}
-
 /// The simulated devices of one trial.
 pub struct SimDevices {
-    /// The three fingertip modules.
+    /// The fingertip modules (of the gripper: the two pads').
     pub tactile: SimTactile,
-    /// The hand.
-    pub hand: SimHand,
+    /// The hand: the three fingers or the gripper (`[sim] hand`).
+    pub hand: SimActuator,
     /// The simulator's truth at each scan.
     pub truth: SimTruthTap,
     /// The world, for the camera and for tests.
@@ -46,6 +41,14 @@ impl SimDevices {
     ) -> SimDevices {
         let world = Arc::new(Mutex::new(SimWorld::new(cfg, object, seed, trial)));
         let slot = Arc::new(Mutex::new(None));
+        let hand = match SimGripper::on_world(world.clone()) {
+            Some(gripper) => SimActuator::Gripper(gripper),
+            None => SimActuator::Fingers(SimHand {
+                world: world.clone(),
+                max_volts: cfg.max_volts,
+                release_volts: -0.3 * cfg.max_volts,
+            }),
+        };
         SimDevices {
             tactile: SimTactile {
                 world: world.clone(),
@@ -53,30 +56,83 @@ impl SimDevices {
                 period_ns: 1e9 / cfg.tactile_rate_hz,
                 rate_hz: cfg.tactile_rate_hz,
                 patch: cfg.tactile.patch,
+                hand: cfg.hand,
                 sequence: 0,
                 truth: slot.clone(),
             },
-            hand: SimHand {
-                world: world.clone(),
-                max_volts: cfg.max_volts,
-                release_volts: -0.3 * cfg.max_volts,
-            },
+            hand,
             truth: SimTruthTap { slot },
             world,
         }
     }
 
-    /// A reader of the simulated hand's finger positions.
+    /// A reader of the simulated hand's finger positions (and the gripper's status).
     pub fn hand_monitor(&self) -> SimHandMonitor {
-        SimHandMonitor { world: self.world.clone(), last: None }
+        SimHandMonitor::new(self.world.clone())
+    }
+
+    /// A gripper and its monitor on this trial's world, for a gripper
+    /// emulator to serve; `None` when the hand is not a gripper.
+    pub fn gripper_pair(&self) -> Option<(SimGripper, SimHandMonitor)> {
+        Some((SimGripper::on_world(self.world.clone())?, self.hand_monitor()))
     }
 }
 
-/// Reads the simulated fingers' travel, as a hand reporting its joints would.
+/// The simulated hand of either kind.
+pub enum SimActuator {
+    /// The three voltage-driven fingers.
+    Fingers(SimHand),
+    /// The parallel gripper.
+    Gripper(SimGripper),
+}
+
+impl SimActuator {
+    fn inner(&self) -> &dyn HandActuator {
+        match self {
+            SimActuator::Fingers(h) => h,
+            SimActuator::Gripper(g) => g,
+        }
+    }
+
+    fn inner_mut(&mut self) -> &mut dyn HandActuator {
+        match self {
+            SimActuator::Fingers(h) => h,
+            SimActuator::Gripper(g) => g,
+        }
+    }
+}
+
+impl HandActuator for SimActuator {
+    fn spec(&self) -> ActuatorSpec {
+        self.inner().spec()
+    }
+
+    fn command(&mut self, command: &ActuatorCommand) -> Result<(), DeviceError> {
+        self.inner_mut().command(command)
+    }
+
+    fn release(&mut self) -> Result<(), DeviceError> {
+        self.inner_mut().release()
+    }
+
+    fn device(&self) -> &str {
+        self.inner().device()
+    }
+}
+
+/// Reads the simulated fingers' travel, as a hand reporting its joints
+/// would; on a gripper, the pads' travel, the opening and the status registers.
 pub struct SimHandMonitor {
     world: SharedWorld,
     /// Simulation time of the last status returned.
     last: Option<TimeNs>,
+}
+
+impl SimHandMonitor {
+    /// A monitor of the hand of `world`.
+    pub fn new(world: SharedWorld) -> SimHandMonitor {
+        SimHandMonitor { world, last: None }
+    }
 }
 
 impl HandMonitor for SimHandMonitor {
@@ -87,11 +143,15 @@ impl HandMonitor for SimHandMonitor {
             return Ok(None);
         }
         self.last = Some(t);
-        Ok(Some(HandStatus {
-            t,
-            finger_travel_m: world.finger_travel_m().to_vec(),
-            opening_m: None,
-            gripper: None,
+        let travel = world.finger_travel_m();
+        Ok(Some(match world.gripper_status() {
+            Some((gripper, opening_m)) => HandStatus {
+                t,
+                finger_travel_m: travel[..2].to_vec(),
+                opening_m: Some(opening_m),
+                gripper: Some(gripper),
+            },
+            None => HandStatus { t, finger_travel_m: travel.to_vec(), opening_m: None, gripper: None },
         }))
     }
 
@@ -107,6 +167,7 @@ pub struct SimTactile {
     period_ns: f64,
     rate_hz: f64,
     patch: Option<PatchConfig>,
+    hand: HandKind,
     sequence: u64,
     truth: Arc<Mutex<Option<SimTruth>>>,
 }
@@ -114,21 +175,36 @@ pub struct SimTactile {
 /// What the simulated tactile source is: the thesis's single module per
 /// finger (the controller and the `finger.axis` channels read it), or a
 /// patch per fingertip (named after its finger; readings are patch means).
-pub fn sim_tactile_info(patch: Option<&PatchConfig>, rate_hz: f64) -> TactileInfo {
-    let Some(p) = patch else { return TactileInfo::one_module_per_finger("sim", rate_hz, "sim") };
-    let sensors = Finger::ALL
-        .iter()
-        .map(|f| SensorLayout {
-            taxel_positions_mm: Some(p.taxel_positions_mm()),
-            ..SensorLayout::grid(f.name(), "sim-patch", f.name(), p.rows, p.cols)
-        })
-        .collect();
-    TactileInfo {
-        device: "sim".into(),
-        rate_hz,
-        layout: TactileLayout { sensors },
-        fingers: PerFinger::from_fn(|f| FingerReading::mean(f.name())),
-    }
+///
+/// On a gripper (`hand = HandKind::Gripper`) there are two sensors, `left`
+/// on the `thumb` and `right` on the `index` (one taxel each, or a patch).
+/// Per-finger readings stay three: `thumb` reads `left`, `index` reads
+/// `right`, and `middle` repeats `right` (the gripper has no third finger;
+/// a controller of a gripper uses thumb and index only).
+pub fn sim_tactile_info(patch: Option<&PatchConfig>, rate_hz: f64, hand: HandKind) -> TactileInfo {
+    let (model, rows, cols) = patch.map_or(("sim", 1, 1), |p| ("sim-patch", p.rows, p.cols));
+    let sensor = |name: &str, finger: Finger| SensorLayout {
+        taxel_positions_mm: patch.map(PatchConfig::taxel_positions_mm),
+        ..SensorLayout::grid(name, model, finger.name(), rows, cols)
+    };
+    let reading = |name: &str| match patch {
+        Some(_) => FingerReading::mean(name),
+        None => FingerReading::taxel(name, 0),
+    };
+    let (sensors, fingers) = match hand {
+        HandKind::ThreeFinger if patch.is_none() => {
+            return TactileInfo::one_module_per_finger("sim", rate_hz, "sim");
+        }
+        HandKind::ThreeFinger => (
+            Finger::ALL.iter().map(|f| sensor(f.name(), *f)).collect(),
+            PerFinger::from_fn(|f| reading(f.name())),
+        ),
+        HandKind::Gripper => (
+            vec![sensor("left", Finger::Thumb), sensor("right", Finger::Index)],
+            PerFinger::from_array([reading("left"), reading("right"), reading("right")]),
+        ),
+    };
+    TactileInfo { device: "sim".into(), rate_hz, layout: TactileLayout { sensors }, fingers }
 }
 
 impl TactileSource for SimTactile {
@@ -149,7 +225,7 @@ impl TactileSource for SimTactile {
     }
 
     fn info(&self) -> TactileInfo {
-        sim_tactile_info(self.patch.as_ref(), self.rate_hz)
+        sim_tactile_info(self.patch.as_ref(), self.rate_hz, self.hand)
     }
 }
 

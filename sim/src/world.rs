@@ -1,18 +1,24 @@
-//! The simulated grasp: three fingers, an object under gravity between them,
-//! friction at each fingertip, and the tactile modules that feel it.
+//! The simulated grasp: three fingers (or the two pads of a parallel
+//! gripper), an object under gravity between them, friction at each
+//! fingertip, and the tactile modules that feel it.
+//!
+//! On a gripper the thumb's slot is the left pad and the index's the right
+//! pad; the middle finger's slot carries nothing (no contact, no tactile
+//! module, zero normal and friction force in the truth).
 
 use std::collections::VecDeque;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use slidetrack_core::{FingerVolts, SimTruth, TimeNs};
+use slidetrack_core::{FingerVolts, GripperRequest, GripperStatus, SimTruth, TimeNs};
 
 use super::config::SimRigConfig;
 use super::finger::FingerState;
 use super::friction::{LuGreContact, LuGreParams};
+use super::gripper::{GripperState, HandKind};
 use super::object::ObjectConfig;
 use super::surface::SurfaceProfile;
-use super::tactile_model::{ContactDeformation, TactileModule};
+use super::tactile_model::{ContactDeformation, TactileModelConfig, TactileModule};
 
 /// Independent random streams of one trial, so that turning the camera off
 /// (or on) does not change the tactile data.
@@ -47,10 +53,15 @@ pub struct SimWorld {
     mass_kg: f64,
     lugre: LuGreParams,
     fingers: [FingerState; 3],
+    /// The gripper's servo and pads, when the hand is a gripper (the
+    /// fingers then stay open and idle).
+    gripper: Option<GripperState>,
     contacts: [LuGreContact; 3],
     friction_n: [f64; 3],
     /// Per finger, one module per taxel of its patch (one for the thesis's hand).
     modules: [Vec<TactileModule>; 3],
+    /// The modules' parameters (`[sim.tactile]`, on a gripper with its pads' magnet height).
+    tactile_cfg: TactileModelConfig,
     /// The share of the contact each taxel of a patch feels.
     taxel_shares: Vec<f64>,
     surfaces: [SurfaceProfile; 3],
@@ -78,22 +89,31 @@ impl SimWorld {
         let mass_kg = object.mass_kg * jitter(j.mass_rel);
         let lugre = LuGreParams::from_config(&object.friction, jitter(j.friction_rel));
         let taxel_shares = cfg.tactile.patch.map_or_else(|| vec![1.0], |p| p.taxel_weights());
+        let gripper = (cfg.hand == HandKind::Gripper)
+            .then(|| GripperState::open(&cfg.gripper, cfg.contact_opening_m(object)));
+        let sensed_fingers = if gripper.is_some() { 2 } else { 3 };
         let modules = [0, 1, 2].map(|f| {
-            (0..taxel_shares.len())
+            (0..if f < sensed_fingers { taxel_shares.len() } else { 0 })
                 .map(|_| TactileModule::draw(&cfg.tactile, f, j.sensor_gain_rel, &mut rng))
                 .collect()
         });
         let surfaces = [0, 1, 2].map(|_| SurfaceProfile::draw(&object.surface, &mut rng));
         let dt_ns = (1e9 / cfg.physics_rate_hz).round().max(1.0) as u64;
+        let mut tactile_cfg = cfg.tactile.clone();
+        if gripper.is_some() {
+            tactile_cfg.magnet_height_m = cfg.gripper.pad_magnet_height_m;
+        }
         SimWorld {
             cfg: cfg.clone(),
             object: object.clone(),
             mass_kg,
             lugre,
             fingers: [FingerState::default(); 3],
+            gripper,
             contacts: [LuGreContact::default(); 3],
             friction_n: [0.0; 3],
             modules,
+            tactile_cfg,
             taxel_shares,
             surfaces,
             tactile_rng: ChaCha8Rng::seed_from_u64(stream_seed(seed, trial, Stream::Tactile)),
@@ -127,6 +147,30 @@ impl SimWorld {
     /// Sets the proximal-joint voltages (V), already saturated by the hand.
     pub fn set_volts(&mut self, volts: FingerVolts) {
         self.volts = volts;
+    }
+
+    /// Sets the gripper's request (its position clamped to `max_steps`);
+    /// false, and nothing changes, when the hand is not a gripper.
+    pub fn command_gripper(&mut self, request: GripperRequest) -> bool {
+        let Some(g) = self.gripper.as_mut() else { return false };
+        g.command(&self.cfg.gripper, request);
+        true
+    }
+
+    /// The gripper's state, when the hand is a gripper.
+    pub fn gripper(&self) -> Option<&GripperState> {
+        self.gripper.as_ref()
+    }
+
+    /// The gripper's status registers and its opening (m), when the hand is a gripper.
+    pub fn gripper_status(&self) -> Option<(GripperStatus, f64)> {
+        let g = self.gripper.as_ref()?;
+        Some((g.status(&self.cfg.gripper), g.opening_m(&self.cfg.gripper)))
+    }
+
+    /// The rig's settings.
+    pub fn config(&self) -> &SimRigConfig {
+        &self.cfg
     }
 
     /// The trial's object after jitter: mass (kg).
@@ -169,11 +213,16 @@ impl SimWorld {
 
     fn step(&mut self, dt_s: f64) {
         let in_contact = !self.dropped;
-        for (f, finger) in self.fingers.iter_mut().enumerate() {
-            let (height, _) = self.surfaces[f].height_and_slope(self.position_m);
-            finger.step(self.cfg.finger(f), self.volts[f], height, in_contact, dt_s);
+        if let Some(g) = self.gripper.as_mut() {
+            let heights = [0, 1].map(|f| self.surfaces[f].height_and_slope(self.position_m).0);
+            g.step(&self.cfg.gripper, heights, in_contact, dt_s);
+        } else {
+            for (f, finger) in self.fingers.iter_mut().enumerate() {
+                let (height, _) = self.surfaces[f].height_and_slope(self.position_m);
+                finger.step(self.cfg.finger(f), self.volts[f], height, in_contact, dt_s);
+            }
         }
-        let normal: [f64; 3] = self.fingers.map(|f| f.normal_n);
+        let normal = self.normal_n();
         let g = self.cfg.gravity_mps2;
         if self.supported {
             self.update_support(&normal, dt_s);
@@ -228,9 +277,37 @@ impl SimWorld {
         }
     }
 
-    /// Each fingertip's travel from its open rest position (m), thumb, index, middle.
+    /// Each contact's normal force (N), thumb (left pad), index (right pad), middle.
+    fn normal_n(&self) -> [f64; 3] {
+        match &self.gripper {
+            Some(g) => [g.normal_n[0], g.normal_n[1], 0.0],
+            None => self.fingers.map(|f| f.normal_n),
+        }
+    }
+
+    /// Each contact's pad indentation (m), thumb (left pad), index (right pad), middle.
+    fn indentation_m(&self) -> [f64; 3] {
+        match &self.gripper {
+            Some(g) => [g.indentation_m[0], g.indentation_m[1], 0.0],
+            None => self.fingers.map(|f| f.indentation_m),
+        }
+    }
+
+    /// Tangential stiffness of the pad at contact `f` (N/m).
+    fn pad_shear_stiffness_n_per_m(&self, f: usize) -> f64 {
+        match &self.gripper {
+            Some(_) => self.cfg.gripper.pad_shear_stiffness_n_per_m,
+            None => self.cfg.finger(f).pad_shear_stiffness_n_per_m,
+        }
+    }
+
+    /// Each fingertip's travel from its open rest position (m), thumb, index,
+    /// middle; on a gripper, the left and right pad's and 0.
     pub fn finger_travel_m(&self) -> [f64; 3] {
-        self.fingers.map(|f| f.position_m)
+        match &self.gripper {
+            Some(g) => [g.pad_travel_m, g.pad_travel_m, 0.0],
+            None => self.fingers.map(|f| f.position_m),
+        }
     }
 
     /// The truth now.
@@ -241,31 +318,34 @@ impl SimWorld {
             velocity_mps: self.velocity_mps,
             supported: self.supported,
             dropped: self.dropped,
-            normal_n: self.fingers.map(|f| f.normal_n),
+            normal_n: self.normal_n(),
             friction_n: self.friction_n,
         }
     }
 
     /// One scan of every taxel at the current time, finger after finger
-    /// (thumb, index, middle), taxels row by row.
+    /// (thumb, index, middle; on a gripper: left pad, right pad), taxels row
+    /// by row.
     pub fn scan_tactile(&mut self) -> Vec<[u16; 3]> {
         let dt_s = (self.t_ns - self.last_scan_ns.min(self.t_ns)) as f64 * 1e-9;
         self.last_scan_ns = self.t_ns;
         let t_s = self.t_ns as f64 * 1e-9;
         let mut raw = Vec::with_capacity(3 * self.taxel_shares.len());
+        let normal = self.normal_n();
+        let indentation = self.indentation_m();
         for f in 0..3 {
             // On a sloped patch of texture the contact force leans along the
             // sliding axis and shears the pad with it.
             let (_, slope) = self.surfaces[f].height_and_slope(self.position_m);
-            let tangential_n = self.friction_n[f] + self.fingers[f].normal_n * slope;
+            let tangential_n = self.friction_n[f] + normal[f] * slope;
             let deformation = ContactDeformation {
-                indentation_m: self.fingers[f].indentation_m,
-                shear_m: tangential_n / self.cfg.finger(f).pad_shear_stiffness_n_per_m,
+                indentation_m: indentation[f],
+                shear_m: tangential_n / self.pad_shear_stiffness_n_per_m(f),
                 slip_speed_mps: if self.supported { 0.0 } else { self.velocity_mps },
             };
             for (module, share) in self.modules[f].iter_mut().zip(&self.taxel_shares) {
                 raw.push(module.sample_share(
-                    &self.cfg.tactile,
+                    &self.tactile_cfg,
                     &deformation,
                     *share,
                     t_s,

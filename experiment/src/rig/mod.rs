@@ -17,7 +17,7 @@ use slidetrack_core::{
     HandActuator, HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
+use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use hw::describe;
@@ -108,6 +108,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let clock: Arc<dyn Clock> =
         if spec.realtime { Arc::new(WallClock::start()) } else { Arc::new(SimClock::new()) };
     let object = spec.object;
+    spec.rig.sim.check_object(object)?;
     let sim = SimDevices::new(&spec.rig.sim, object, spec.seed, spec.trial, clock.clone());
     let tactile_info = sim.tactile.info();
     let geometry = &spec.rig.geometry;
@@ -207,6 +208,7 @@ pub fn configured_actuator(rig: &RigConfig) -> ActuatorSpec {
         Some(slidetrack_drivers::config::HandDevice::Can(c)) => {
             ActuatorSpec::FingerVolts { max_volts: c.max_volts }
         }
+        _ if rig.sim.hand == HandKind::Gripper => ActuatorSpec::Gripper(rig.sim.gripper.spec()),
         _ => ActuatorSpec::FingerVolts { max_volts: rig.sim.max_volts },
     }
 }
