@@ -43,6 +43,8 @@ pub struct RobotiqEmulatorOptions {
     pub silent_after: Option<Duration>,
     /// Close the terminal this long after the activation completed.
     pub unplug_after: Option<Duration>,
+    /// Flip a bit in every n-th response (0: never), as line noise would.
+    pub corrupt_every: u64,
 }
 
 impl Default for RobotiqEmulatorOptions {
@@ -56,6 +58,7 @@ impl Default for RobotiqEmulatorOptions {
             fault: None,
             silent_after: None,
             unplug_after: None,
+            corrupt_every: 0,
         }
     }
 }
@@ -312,11 +315,16 @@ impl Worker {
         };
         let mut record = lock(&self.shared.record);
         record.server = self.server.record();
-        let Some(reply) = reply.filter(|_| !self.shared.silent.load(Ordering::SeqCst)) else {
+        let Some(mut reply) = reply.filter(|_| !self.shared.silent.load(Ordering::SeqCst)) else {
             record.ignored += 1;
             return true;
         };
         record.answered += 1;
+        let n = self.options.corrupt_every;
+        if n > 0 && record.answered.is_multiple_of(n) {
+            let at = (record.answered as usize / n as usize) % reply.len();
+            reply[at] ^= 0x20;
+        }
         drop(record);
         self.pace(frame.len(), reply.len());
         self.write(&reply)
@@ -355,3 +363,6 @@ impl Worker {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;
