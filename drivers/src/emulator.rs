@@ -153,7 +153,7 @@ impl TactileSource for EmulatedSerialTactile {
 /// The configured sensors, `(name, rows, cols)`, must be the simulated ones
 /// taxel for taxel: an emulator sends what the simulator measures, nothing
 /// invented. The error names `device` (the emulated port or URL).
-pub(crate) fn check_emulated_sensors(
+pub fn check_emulated_sensors(
     sim: &TactileInfo,
     configured: &[(&str, u32, u32)],
     device: &str,
@@ -180,7 +180,7 @@ pub(crate) fn check_emulated_sensors(
 }
 
 /// `(name, rows, cols)` of configured sensors, for [`check_emulated_sensors`].
-pub(crate) fn sensor_grids(sensors: &[HwSensor]) -> Vec<(&str, u32, u32)> {
+pub fn sensor_grids(sensors: &[HwSensor]) -> Vec<(&str, u32, u32)> {
     sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect()
 }
 

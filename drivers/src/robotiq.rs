@@ -8,12 +8,15 @@
 //! gripper to put behind it. With the `devices` feature: [`link`] runs
 //! transactions on a serial port, [`driver`] is the [`RobotiqGripper`]
 //! (a `HandActuator` and, through [`RobotiqGripper::monitor`], a
-//! `HandMonitor`), and [`emulator`] serves a gripper on a pseudo-terminal.
+//! `HandMonitor`), [`emulator`] serves a gripper on a pseudo-terminal and
+//! [`emulated`] puts the driver in front of it (`port = "emulated"`).
 //! The protocol and its sources are in `docs/protocols.md`.
 
 pub mod config;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod driver;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod emulated;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod emulator;
 #[cfg(all(feature = "devices", target_os = "linux"))]
@@ -26,6 +29,8 @@ pub mod server;
 pub use config::{RobotiqConfig, RobotiqModel};
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use driver::{RobotiqGripper, RobotiqMonitor};
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use emulated::{EmulatedRobotiqGripper, EmulatedRobotiqMonitor};
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use emulator::{RobotiqEmulator, RobotiqEmulatorOptions};
 pub use model::KinematicGripper;

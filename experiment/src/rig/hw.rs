@@ -15,8 +15,9 @@ use slidetrack_core::{
     parse_toml,
 };
 use slidetrack_drivers::config::{
-    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, TactileDevice, V4l2CameraConfig,
+    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, RobotiqConfig, TactileDevice, V4l2CameraConfig,
 };
+use slidetrack_drivers::robotiq::{EmulatedRobotiqGripper, EmulatedRobotiqMonitor, RobotiqGripper, RobotiqMonitor};
 use slidetrack_drivers::xela_ws::config::EMULATED_URL;
 use slidetrack_drivers::xela_ws::{EmulatedXelaWsTactile, XelaWsTactile};
 use slidetrack_drivers::{
@@ -47,6 +48,7 @@ pub fn describe(hw: &HwRigConfig) -> String {
     let hand = match &hw.hand {
         HandDevice::Sim => "sim".to_string(),
         HandDevice::Can(h) => format!("CAN {}", h.interface),
+        HandDevice::Robotiq(r) => format!("Robotiq {} {}", r.model.name(), r.port),
     };
     format!("rig {}: tactile {tactile}, camera {camera}, hand {hand}", hw.name)
 }
@@ -99,15 +101,24 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         || matches!(prepared, Some(PreparedCamera::Sim(_)));
     let sim = needs_world
         .then(|| SimDevices::new(&spec.rig.sim, spec.object, spec.seed, spec.trial, Arc::clone(&clock)));
-    let hand_monitor = sim.as_ref().map(|s| Box::new(s.hand_monitor()) as Box<dyn HandMonitor>);
+    let mut hand_monitor = sim.as_ref().map(|s| Box::new(s.hand_monitor()) as Box<dyn HandMonitor>);
     let (sim_tactile, sim_hand, sim_truth, world) = match sim {
         Some(s) => (Some(s.tactile), Some(s.hand), Some(s.truth), Some(s.world)),
         None => (None, None, None, None),
     };
     let hand: Box<dyn HandActuator> = match (&hw.hand, sim_hand) {
+        (HandDevice::Robotiq(r), _) if !drive => {
+            hand_monitor = Some(watch_robotiq(r, &clock)?);
+            Box::new(UndrivenHand)
+        }
         _ if !drive => Box::new(UndrivenHand),
         (HandDevice::Sim, Some(h)) => Box::new(h),
         (HandDevice::Can(c), _) => Box::new(CanHand::open(c)?),
+        (HandDevice::Robotiq(r), _) => {
+            let (gripper, monitor) = open_robotiq(r, &clock)?;
+            hand_monitor = Some(monitor);
+            gripper
+        }
         (HandDevice::Sim, None) => bail!("internal: the simulated hand was not built"),
     };
     let camera = open_camera(spec, prepared, world.as_ref(), &clock)?;
@@ -146,6 +157,27 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     let rig = Rig { tactile, hand, camera, clock, truth };
     let extra_metadata = std::collections::BTreeMap::new();
     Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata, hand_monitor })
+}
+
+/// Opens (and activates) the Robotiq gripper, or its emulator for
+/// `port = "emulated"`, with a monitor of the status its link thread reads.
+fn open_robotiq(r: &RobotiqConfig, clock: &Arc<dyn Clock>) -> Result<(Box<dyn HandActuator>, Box<dyn HandMonitor>)> {
+    if r.port == EMULATED_PORT {
+        let gripper = EmulatedRobotiqGripper::start(r, Arc::clone(clock))?;
+        let monitor = Box::new(gripper.monitor());
+        return Ok((Box::new(gripper), monitor));
+    }
+    let gripper = RobotiqGripper::open(r, Arc::clone(clock))?;
+    let monitor = Box::new(gripper.monitor());
+    Ok((Box::new(gripper), monitor))
+}
+
+/// Watches the Robotiq gripper's status without activating or commanding it.
+fn watch_robotiq(r: &RobotiqConfig, clock: &Arc<dyn Clock>) -> Result<Box<dyn HandMonitor>> {
+    if r.port == EMULATED_PORT {
+        return Ok(Box::new(EmulatedRobotiqMonitor::start(r, Arc::clone(clock))?));
+    }
+    Ok(Box::new(RobotiqMonitor::watch(r, Arc::clone(clock))?))
 }
 
 /// The slow set-up of the camera (marker, renderer, calibration) and its
