@@ -43,7 +43,8 @@ fn registers(v: &serde_json::Value) -> Vec<[u16; 3]> {
         .expect("a list of statuses")
         .iter()
         .map(|r| {
-            let r: Vec<u16> = r.as_array().expect("3 registers").iter().map(|x| x.as_u64().expect("u16") as u16).collect();
+            let r: Vec<u16> =
+                r.as_array().expect("3 registers").iter().map(|x| x.as_u64().expect("u16") as u16).collect();
             [r[0], r[1], r[2]]
         })
         .collect()

@@ -37,9 +37,9 @@ pub mod emulator;
 pub mod hand_can;
 pub mod mjpeg;
 pub mod offline;
+pub mod robotiq;
 pub mod scan;
 pub mod sensors;
-pub mod robotiq;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod serial;
 pub mod serial_protocol;

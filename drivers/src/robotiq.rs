@@ -21,8 +21,8 @@ pub mod emulated;
 pub mod emulator;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod link;
-pub mod model;
 pub mod modbus;
+pub mod model;
 pub mod registers;
 pub mod server;
 
@@ -33,4 +33,4 @@ pub use driver::{RobotiqGripper, RobotiqMonitor};
 pub use emulated::{EmulatedRobotiqGripper, EmulatedRobotiqMonitor};
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use emulator::{RobotiqEmulator, RobotiqEmulatorOptions};
-pub use model::KinematicGripper;
+pub use model::{KinematicActuator, KinematicMonitor, kinematic_gripper};

@@ -13,9 +13,10 @@ use std::thread::JoinHandle;
 use anyhow::{Context, Result, bail};
 use slidetrack_control::{ObserverError, ProtocolEvent, TrialObserver, run_trial};
 use slidetrack_core::{
-    ActuatorCommand, DeviceError, ErrorKind, Frame, SimTruth, TactileInfo, TactileSample, TactileSource, TimeNs,
+    ActuatorCommand, DeviceError, ErrorKind, Frame, SimTruth, TactileInfo, TactileSample, TactileSource,
+    TimeNs,
 };
-use slidetrack_drivers::config::{HwRigConfig, TactileDevice};
+use slidetrack_drivers::config::TactileDevice;
 use slidetrack_drivers::emulator::{EmulatedPort, SerialEmulator, check_emulated_sensors, sensor_grids};
 use slidetrack_drivers::slcan_emulator::{FrameSource, SlcanEmulator, SlcanEmulatorConfig};
 use slidetrack_drivers::xela_ws::emulated::XelaWsLiveEmulator;
@@ -61,7 +62,7 @@ pub fn start_tactile_emulator(
     seed: u64,
     duration_s: f64,
 ) -> Result<TactileEmulator> {
-    let hw = rig.hw.clone().unwrap_or_else(HwRigConfig::default);
+    let hw = rig.hw.clone().unwrap_or_default();
     let (trials, source) = SimulatedTrials::start(rig, object, seed, duration_s)?;
     let (endpoint, device): (String, Box<dyn Send>) = match (kind, &hw.tactile) {
         (EmulatedTactile::Serial, TactileDevice::Serial(s)) => {
@@ -76,7 +77,8 @@ pub fn start_tactile_emulator(
             check_emulated_sensors(&source.info(), &sensor_grids(&c.sensors), "slcan emulator")?;
             let layout = c.layout().context("hw.tactile")?;
             let mut source = source;
-            let frames: FrameSource = Box::new(move || source.read().ok().map(|s| layout.encode_scan(&s.raw)));
+            let frames: FrameSource =
+                Box::new(move || source.read().ok().map(|s| layout.encode_scan(&s.raw)));
             let emulator = SlcanEmulator::start(frames, SlcanEmulatorConfig::default())?;
             (emulator.path().to_string(), Box::new(emulator))
         }
@@ -105,7 +107,12 @@ struct SimulatedTrials {
 }
 
 impl SimulatedTrials {
-    fn start(rig: &RigConfig, object: &ObjectConfig, seed: u64, duration_s: f64) -> Result<(Self, ChannelTactile)> {
+    fn start(
+        rig: &RigConfig,
+        object: &ObjectConfig,
+        seed: u64,
+        duration_s: f64,
+    ) -> Result<(Self, ChannelTactile)> {
         let spec = |trial| TrialSpec {
             rig,
             object,
@@ -131,7 +138,17 @@ impl SimulatedTrials {
                         return;
                     }
                     count.fetch_add(1, Ordering::SeqCst);
-                    let spec = TrialSpec { rig: &rig, object: &object, seed, trial, duration_s, camera: false, realtime: true, overwrite: false, path: PathBuf::new() };
+                    let spec = TrialSpec {
+                        rig: &rig,
+                        object: &object,
+                        seed,
+                        trial,
+                        duration_s,
+                        camera: false,
+                        realtime: true,
+                        overwrite: false,
+                        path: PathBuf::new(),
+                    };
                     if let Err(e) = run_one(&spec, &tx, &stop_flag) {
                         tracing::warn!("simulated trial {trial}: {e:#}");
                         return;
@@ -139,7 +156,10 @@ impl SimulatedTrials {
                 }
             })
             .context("cannot start the simulated trials")?;
-        Ok((SimulatedTrials { stop, started, thread: Some(thread) }, ChannelTactile { rx, info, sequence: 0 }))
+        Ok((
+            SimulatedTrials { stop, started, thread: Some(thread) },
+            ChannelTactile { rx, info, sequence: 0 },
+        ))
     }
 }
 

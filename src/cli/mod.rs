@@ -119,15 +119,25 @@ mod tests {
 
     #[test]
     fn emulate_parses_its_devices() {
-        let cli = Cli::try_parse_from(["slidetrack", "emulate", "robotiq", "--model", "hand-e", "--object-width-mm", "30"])
-            .unwrap();
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "emulate",
+            "robotiq",
+            "--model",
+            "hand-e",
+            "--object-width-mm",
+            "30",
+        ])
+        .unwrap();
         let Command::Emulate(EmulateArgs { device: EmulateDevice::Robotiq(a) }) = cli.command else {
             panic!("not emulate robotiq")
         };
         assert_eq!((a.model.as_str(), a.object_width_mm, a.device_id), ("hand-e", Some(30.0), 9));
         assert!(Cli::try_parse_from(["slidetrack", "emulate", "robotiq", "--model", "3f"]).is_err());
         assert!(Cli::try_parse_from(["slidetrack", "emulate", "robotiq", "--fault", "16"]).is_err());
-        assert!(Cli::try_parse_from(["slidetrack", "emulate", "xela-server", "--config", "rig.toml"]).is_ok());
+        assert!(
+            Cli::try_parse_from(["slidetrack", "emulate", "xela-server", "--config", "rig.toml"]).is_ok()
+        );
         assert!(Cli::try_parse_from(["slidetrack", "emulate", "serial"]).is_err(), "--config is required");
     }
 

@@ -23,14 +23,17 @@ pub fn run(args: &EmulateArgs) -> Result<()> {
 }
 
 fn robotiq(a: &EmulateRobotiqArgs) -> Result<()> {
-    let Some(model) = RobotiqModel::from_name(&a.model) else { bail!("--model {}: not a Robotiq model", a.model) };
+    let Some(model) = RobotiqModel::from_name(&a.model) else {
+        bail!("--model {}: not a Robotiq model", a.model)
+    };
     let stroke_mm = model.spec().stroke_m * 1000.0;
     if let Some(w) = a.object_width_mm
         && !(w.is_finite() && (0.0..stroke_mm).contains(&w))
     {
         bail!("--object-width-mm {w}: must be within the {} stroke, 0 to {stroke_mm} mm", a.model);
     }
-    if !(a.activation_s.is_finite() && a.activation_s >= 0.0) || !(a.fault_after_s.is_finite() && a.fault_after_s >= 0.0) {
+    let non_negative = |t: f64| t.is_finite() && t >= 0.0;
+    if !non_negative(a.activation_s) || !non_negative(a.fault_after_s) {
         bail!("--activation-s and --fault-after-s must be >= 0 s");
     }
     if a.device_id == 0 || a.device_id > 247 {
@@ -46,14 +49,20 @@ fn robotiq(a: &EmulateRobotiqArgs) -> Result<()> {
     };
     let emulator = RobotiqEmulator::kinematic(model, a.object_width_mm.map(|w| w / 1000.0), options)?;
     let object = a.object_width_mm.map_or("no object".to_string(), |w| format!("an object {w} mm wide"));
-    serve(emulator.path(), &format!(
-        "emulated Robotiq {} (device id {}, {object}): use port = \"{}\" (115200 baud 8N1); Ctrl-C to stop",
-        a.model,
-        a.device_id,
-        emulator.path()
-    ))?;
+    serve(
+        emulator.path(),
+        &format!(
+            "emulated Robotiq {} (device id {}, {object}): use port = \"{}\" (115200 baud 8N1); Ctrl-C to stop",
+            a.model,
+            a.device_id,
+            emulator.path()
+        ),
+    )?;
     let r = emulator.record();
-    eprintln!("answered {} requests, ignored {}, passed {} requests to the fingers", r.answered, r.ignored, r.server.commands);
+    eprintln!(
+        "answered {} requests, ignored {}, passed {} requests to the fingers",
+        r.answered, r.ignored, r.server.commands
+    );
     Ok(())
 }
 
@@ -65,10 +74,13 @@ fn tactile(kind: EmulatedTactile, a: &EmulateTactileArgs) -> Result<()> {
     }
     let emulator = start_tactile_emulator(kind, &rig, &object, a.seed, a.duration)
         .with_context(|| format!("cannot emulate {kind:?} from {}", a.config.display()))?;
-    serve(&emulator.endpoint, &format!(
-        "emulated {kind:?} tactile device fed by simulated trials of {}: {}; Ctrl-C to stop",
-        a.object, emulator.endpoint
-    ))?;
+    serve(
+        &emulator.endpoint,
+        &format!(
+            "emulated {kind:?} tactile device fed by simulated trials of {}: {}; Ctrl-C to stop",
+            a.object, emulator.endpoint
+        ),
+    )?;
     eprintln!("{} simulated trials", emulator.trials());
     Ok(())
 }

@@ -42,7 +42,9 @@ impl RobotiqModel {
 
     /// From its name (`2f85`, `2f140`, `hand-e`).
     pub fn from_name(name: &str) -> Option<RobotiqModel> {
-        [RobotiqModel::TwoF85, RobotiqModel::TwoF140, RobotiqModel::HandE].into_iter().find(|m| m.name() == name)
+        [RobotiqModel::TwoF85, RobotiqModel::TwoF140, RobotiqModel::HandE]
+            .into_iter()
+            .find(|m| m.name() == name)
     }
 
     /// What the gripper accepts: 8-bit requests over the model's ranges.
@@ -173,7 +175,12 @@ impl RobotiqConfig {
         check("response_timeout_ms", ms(self.response_timeout_ms), self.response_timeout_ms > 0, "> 0 ms")?;
         let link_ok = self.link_timeout_ms >= self.response_timeout_ms;
         check("link_timeout_ms", ms(self.link_timeout_ms), link_ok, ">= response_timeout_ms")?;
-        check("activation_timeout_ms", ms(self.activation_timeout_ms), self.activation_timeout_ms > 0, "> 0 ms")?;
+        check(
+            "activation_timeout_ms",
+            ms(self.activation_timeout_ms),
+            self.activation_timeout_ms > 0,
+            "> 0 ms",
+        )?;
         check("poll_period_ms", ms(self.poll_period_ms), self.poll_period_ms <= 1000, "0..=1000 ms")?;
         let e = &self.emulator;
         let stroke_mm = self.model.spec().stroke_m * 1000.0;
@@ -193,7 +200,12 @@ impl RobotiqConfig {
             }
         }
         if let Some(code) = e.fault_code {
-            check("emulator.fault_code", f64::from(code), (1..=15).contains(&code), "1..=15 (gFLT is 4 bits)")?;
+            check(
+                "emulator.fault_code",
+                f64::from(code),
+                (1..=15).contains(&code),
+                "1..=15 (gFLT is 4 bits)",
+            )?;
         }
         Ok(())
     }
@@ -213,9 +225,15 @@ mod tests {
 
     #[test]
     fn bad_values_name_their_field() {
-        let bad = |text: &str| toml::from_str::<RobotiqConfig>(text).unwrap().validate().unwrap_err().to_string();
-        assert_eq!(bad("device_id = 0"), "hw.hand.device_id = 0 is out of range (1..=247 (Modbus unicast ids))");
-        assert!(bad("[emulator]\nobject_width_mm = 90.0").starts_with("hw.hand.emulator.object_width_mm = 90"));
+        let bad =
+            |text: &str| toml::from_str::<RobotiqConfig>(text).unwrap().validate().unwrap_err().to_string();
+        assert_eq!(
+            bad("device_id = 0"),
+            "hw.hand.device_id = 0 is out of range (1..=247 (Modbus unicast ids))"
+        );
+        assert!(
+            bad("[emulator]\nobject_width_mm = 90.0").starts_with("hw.hand.emulator.object_width_mm = 90")
+        );
         assert!(bad("link_timeout_ms = 10").starts_with("hw.hand.link_timeout_ms"));
         let unknown = toml::from_str::<RobotiqConfig>("model = \"3f\"").unwrap_err().to_string();
         assert!(unknown.contains("2f85"), "{unknown}");

@@ -45,7 +45,9 @@ pub fn write_request_read_status(request: &RobotiqRequest) -> Request {
 /// A status from the registers of a read response.
 fn status_of(response: &Response) -> Option<RobotiqStatus> {
     match response {
-        Response::Registers(r) if r.len() == usize::from(REGISTERS) => Some(RobotiqStatus::from_registers([r[0], r[1], r[2]])),
+        Response::Registers(r) if r.len() == usize::from(REGISTERS) => {
+            Some(RobotiqStatus::from_registers([r[0], r[1], r[2]]))
+        }
         _ => None,
     }
 }
@@ -62,7 +64,11 @@ pub fn activate(link: &mut RtuLink, timeout: Duration) -> Result<RobotiqStatus, 
         match link.transact(&read_status()).map(|r| status_of(&r)) {
             Ok(Some(s)) if s.fault_message().is_some() && s.fault != 0x05 => {
                 let fault = s.fault_message().unwrap_or_default();
-                return Err(DeviceError::new(ErrorKind::Fault, link.device(), format!("activation failed: {fault}")));
+                return Err(DeviceError::new(
+                    ErrorKind::Fault,
+                    link.device(),
+                    format!("activation failed: {fault}"),
+                ));
             }
             Ok(Some(s)) if s.is_active() => return Ok(s),
             Err(e) if e.kind == ErrorKind::Disconnected => return Err(e),
@@ -124,10 +130,10 @@ impl Poller {
             link_timeout: Duration::from_millis(cfg.link_timeout_ms),
             read_write_in_one: cfg.read_write_in_one,
         };
-        let thread = std::thread::Builder::new()
-            .name("robotiq-link".into())
-            .spawn(move || worker.run())
-            .map_err(|e| DeviceError::new(ErrorKind::Other, &device, format!("cannot start the link thread: {e}")))?;
+        let thread =
+            std::thread::Builder::new().name("robotiq-link".into()).spawn(move || worker.run()).map_err(
+                |e| DeviceError::new(ErrorKind::Other, &device, format!("cannot start the link thread: {e}")),
+            )?;
         Ok(Poller { shared, thread: Some(thread), device })
     }
 }
@@ -252,9 +258,15 @@ impl RobotiqGripper {
     /// the link thread; statuses are timed on `clock`.
     pub fn open(cfg: &RobotiqConfig, clock: Arc<dyn Clock>) -> Result<RobotiqGripper, DeviceError> {
         cfg.validate().map_err(|e| DeviceError::new(ErrorKind::Other, &cfg.port, e.to_string()))?;
-        let mut link = RtuLink::open(&cfg.port, cfg.baud, cfg.device_id, Duration::from_millis(cfg.response_timeout_ms))?;
+        let mut link = RtuLink::open(
+            &cfg.port,
+            cfg.baud,
+            cfg.device_id,
+            Duration::from_millis(cfg.response_timeout_ms),
+        )?;
         activate(&mut link, Duration::from_millis(cfg.activation_timeout_ms))?;
-        let release = RobotiqRequest::go_to(&GripperRequest { position_steps: 0, speed: cfg.speed, force: cfg.force });
+        let release =
+            RobotiqRequest::go_to(&GripperRequest { position_steps: 0, speed: cfg.speed, force: cfg.force });
         Ok(RobotiqGripper {
             poller: Poller::start(link, cfg, clock)?,
             spec: cfg.model.spec(),
@@ -266,7 +278,12 @@ impl RobotiqGripper {
 
     /// A monitor of this gripper's status (what the link thread last read).
     pub fn monitor(&self) -> RobotiqMonitor {
-        RobotiqMonitor { shared: Arc::clone(&self.poller.shared), device: self.poller.device.clone(), seen: 0, _poller: None }
+        RobotiqMonitor {
+            shared: Arc::clone(&self.poller.shared),
+            device: self.poller.device.clone(),
+            seen: 0,
+            _poller: None,
+        }
     }
 
     /// A request to `position_steps` at the configured speed and force.
@@ -348,9 +365,19 @@ impl RobotiqMonitor {
     /// Modbus master talks on the same line.
     pub fn watch(cfg: &RobotiqConfig, clock: Arc<dyn Clock>) -> Result<RobotiqMonitor, DeviceError> {
         cfg.validate().map_err(|e| DeviceError::new(ErrorKind::Other, &cfg.port, e.to_string()))?;
-        let link = RtuLink::open(&cfg.port, cfg.baud, cfg.device_id, Duration::from_millis(cfg.response_timeout_ms))?;
+        let link = RtuLink::open(
+            &cfg.port,
+            cfg.baud,
+            cfg.device_id,
+            Duration::from_millis(cfg.response_timeout_ms),
+        )?;
         let poller = Poller::start(link, cfg, clock)?;
-        Ok(RobotiqMonitor { shared: Arc::clone(&poller.shared), device: poller.device.clone(), seen: 0, _poller: Some(poller) })
+        Ok(RobotiqMonitor {
+            shared: Arc::clone(&poller.shared),
+            device: poller.device.clone(),
+            seen: 0,
+            _poller: Some(poller),
+        })
     }
 }
 

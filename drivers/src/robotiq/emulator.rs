@@ -16,8 +16,8 @@ use serialport::{SerialPort, TTYPort};
 use slidetrack_core::{DeviceError, ErrorKind, HandActuator, HandMonitor, WallClock};
 
 use super::config::{RobotiqConfig, RobotiqModel};
-use super::model::KinematicGripper;
 use super::modbus::{FrameError, MAX_FRAME, Request, Response, request_len};
+use super::model::kinematic_gripper;
 use super::server::{GripperServer, ServerRecord};
 
 /// How the emulated gripper behaves.
@@ -125,7 +125,8 @@ impl RobotiqEmulator {
         options: RobotiqEmulatorOptions,
     ) -> Result<RobotiqEmulator, DeviceError> {
         let error = |detail: String| DeviceError::new(ErrorKind::Other, "robotiq emulator", detail);
-        let (master, slave) = TTYPort::pair().map_err(|e| error(format!("cannot create a pseudo-terminal: {e}")))?;
+        let (master, slave) =
+            TTYPort::pair().map_err(|e| error(format!("cannot create a pseudo-terminal: {e}")))?;
         let path = slave.name().ok_or_else(|| error("the pseudo-terminal has no device path".into()))?;
         let shared = Arc::new(Shared {
             stop: AtomicBool::new(false),
@@ -158,7 +159,8 @@ impl RobotiqEmulator {
         object_width_m: Option<f64>,
         options: RobotiqEmulatorOptions,
     ) -> Result<RobotiqEmulator, DeviceError> {
-        let (actuator, monitor) = KinematicGripper::new(model.spec(), object_width_m, Arc::new(WallClock::start()));
+        let (actuator, monitor) =
+            kinematic_gripper(model.spec(), object_width_m, Arc::new(WallClock::start()));
         RobotiqEmulator::start(Box::new(actuator), Box::new(monitor), options)
     }
 
@@ -229,13 +231,18 @@ impl Worker {
                 tracing::info!("robotiq emulator: unplugging");
                 return; // dropping the pseudo-terminal hangs up the device side
             }
-            let read = self.master.set_timeout(POLL).map_err(std::io::Error::from).and_then(|()| self.master.read(&mut chunk));
+            let read = self
+                .master
+                .set_timeout(POLL)
+                .map_err(std::io::Error::from)
+                .and_then(|()| self.master.read(&mut chunk));
             match read {
                 Ok(n) => {
                     self.buf.extend_from_slice(&chunk[..n]);
                     self.last_byte = Instant::now();
                 }
-                Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock) => {}
+                Err(e)
+                    if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock) => {}
                 Err(e) => {
                     tracing::warn!("robotiq emulator: reading failed: {e}");
                     return;

@@ -44,7 +44,9 @@ impl LinkCounters {
             FrameError::BadCrc { .. } => self.bad_crc += 1,
             FrameError::Short { .. } | FrameError::BadLength { .. } => self.bad_length += 1,
             FrameError::WrongDevice { .. } => self.wrong_device += 1,
-            FrameError::WrongFunction { .. } | FrameError::BadEcho { .. } | FrameError::UnknownFunction { .. } => {
+            FrameError::WrongFunction { .. }
+            | FrameError::BadEcho { .. }
+            | FrameError::UnknownFunction { .. } => {
                 self.mismatched += 1;
             }
         }
@@ -63,7 +65,12 @@ pub struct RtuLink {
 
 impl RtuLink {
     /// Opens `path` (exclusively, raw, 8N1 at `baud`) for device `device_id`.
-    pub fn open(path: &str, baud: u32, device_id: u8, response_timeout: Duration) -> Result<RtuLink, DeviceError> {
+    pub fn open(
+        path: &str,
+        baud: u32,
+        device_id: u8,
+        response_timeout: Duration,
+    ) -> Result<RtuLink, DeviceError> {
         let port = serialport::new(path, baud)
             .data_bits(serialport::DataBits::Eight)
             .parity(serialport::Parity::None)
@@ -109,7 +116,10 @@ impl RtuLink {
     pub fn transact(&mut self, request: &Request) -> Result<Response, DeviceError> {
         self.counters.transactions += 1;
         let frame = request.encode(self.device_id);
-        self.port.write_all(&frame).and_then(|()| self.port.flush()).map_err(|e| self.io_error(&e, "write"))?;
+        self.port
+            .write_all(&frame)
+            .and_then(|()| self.port.flush())
+            .map_err(|e| self.io_error(&e, "write"))?;
         self.read_response(request)?;
         match Response::decode(&self.buf, self.device_id, request) {
             Ok(Response::Exception { function, code }) => {
@@ -150,7 +160,9 @@ impl RtuLink {
             match self.port.read(&mut chunk[..want - self.buf.len()]) {
                 Ok(0) => return Err(self.error(ErrorKind::Disconnected, "the port hung up".into())),
                 Ok(n) => self.buf.extend_from_slice(&chunk[..n]),
-                Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock) => {
+                Err(e)
+                    if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock) =>
+                {
                     return self.timed_out();
                 }
                 Err(e) => return Err(self.io_error(&e, "read")),

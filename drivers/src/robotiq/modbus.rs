@@ -115,7 +115,8 @@ impl Request {
     /// The frame for device `device_id`, CRC included.
     pub fn encode(&self, device_id: u8) -> Vec<u8> {
         let mut f = vec![device_id, self.function()];
-        let words = |f: &mut Vec<u8>, ws: &[u16]| ws.iter().for_each(|w| f.extend_from_slice(&w.to_be_bytes()));
+        let words =
+            |f: &mut Vec<u8>, ws: &[u16]| ws.iter().for_each(|w| f.extend_from_slice(&w.to_be_bytes()));
         match self {
             Request::ReadHolding { address, count } | Request::ReadInput { address, count } => {
                 words(&mut f, &[*address, *count]);
@@ -141,7 +142,11 @@ impl Request {
         let (id, fc, data) = (body[0], body[1], &body[2..]);
         let word = |i: usize| u16::from_be_bytes([data[2 * i], data[2 * i + 1]]);
         let need = |n: usize| {
-            if data.len() == n { Ok(()) } else { Err(FrameError::BadLength { function: fc, len: frame.len() }) }
+            if data.len() == n {
+                Ok(())
+            } else {
+                Err(FrameError::BadLength { function: fc, len: frame.len() })
+            }
         };
         let values_at = |offset: usize| -> Result<Vec<u16>, FrameError> {
             let count = usize::from(word(offset / 2));
@@ -150,7 +155,9 @@ impl Request {
             if bytes != 2 * count || count == 0 {
                 return Err(FrameError::BadLength { function: fc, len: frame.len() });
             }
-            Ok((0..count).map(|i| u16::from_be_bytes([data[offset + 3 + 2 * i], data[offset + 4 + 2 * i]])).collect())
+            Ok((0..count)
+                .map(|i| u16::from_be_bytes([data[offset + 3 + 2 * i], data[offset + 4 + 2 * i]]))
+                .collect())
         };
         let request = match fc {
             function::READ_HOLDING | function::READ_INPUT | function::WRITE_SINGLE => {
@@ -262,7 +269,9 @@ impl Response {
                 if data.len() != 1 + 2 * n || usize::from(data[0]) != 2 * n {
                     return bad_length;
                 }
-                Ok(Response::Registers((0..n).map(|i| u16::from_be_bytes([data[1 + 2 * i], data[2 + 2 * i]])).collect()))
+                Ok(Response::Registers(
+                    (0..n).map(|i| u16::from_be_bytes([data[1 + 2 * i], data[2 + 2 * i]])).collect(),
+                ))
             }
             Request::WriteSingle { address, value } => {
                 if data.len() != 4 {

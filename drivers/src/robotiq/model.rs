@@ -12,8 +12,8 @@
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
 use slidetrack_core::{
-    ActuatorCommand, ActuatorSpec, Clock, DeviceError, GripperObject, GripperRequest, GripperSpec, GripperStatus,
-    HandActuator, HandMonitor, HandStatus, TimeNs,
+    ActuatorCommand, ActuatorSpec, Clock, DeviceError, GripperObject, GripperRequest, GripperSpec,
+    GripperStatus, HandActuator, HandMonitor, HandStatus, TimeNs,
 };
 
 /// Motor current while the fingers move (mA).
@@ -21,31 +21,26 @@ const MOVING_CURRENT_MA: u32 = 100;
 /// Motor current holding an object at force 255 (mA).
 const MAX_HOLDING_CURRENT_MA: f64 = 600.0;
 
-/// A kinematic gripper: its actuator and its monitor share one state.
-pub struct KinematicGripper;
-
-impl KinematicGripper {
-    /// A gripper of `spec`, fully open, stopping on an object `object_width_m`
-    /// wide when there is one, on `clock`'s time. Returns the actuator and
-    /// a monitor of the same fingers.
-    pub fn new(
-        spec: GripperSpec,
-        object_width_m: Option<f64>,
-        clock: Arc<dyn Clock>,
-    ) -> (KinematicActuator, KinematicMonitor) {
-        let now = clock.now();
-        let state = Arc::new(Mutex::new(State {
-            spec,
-            object_width_m,
-            closure_m: 0.0,
-            request: GripperRequest::default(),
-            moving: false,
-            object: GripperObject::AtRequest,
-            t: now,
-        }));
-        let actuator = KinematicActuator { state: Arc::clone(&state), clock: Arc::clone(&clock) };
-        (actuator, KinematicMonitor { state, clock })
-    }
+/// A kinematic gripper of `spec`, fully open, stopping on an object
+/// `object_width_m` wide when there is one, on `clock`'s time: its actuator
+/// and a monitor of the same fingers.
+pub fn kinematic_gripper(
+    spec: GripperSpec,
+    object_width_m: Option<f64>,
+    clock: Arc<dyn Clock>,
+) -> (KinematicActuator, KinematicMonitor) {
+    let now = clock.now();
+    let state = Arc::new(Mutex::new(State {
+        spec,
+        object_width_m,
+        closure_m: 0.0,
+        request: GripperRequest::default(),
+        moving: false,
+        object: GripperObject::AtRequest,
+        t: now,
+    }));
+    let actuator = KinematicActuator { state: Arc::clone(&state), clock: Arc::clone(&clock) };
+    (actuator, KinematicMonitor { state, clock })
 }
 
 struct State {
@@ -97,7 +92,8 @@ impl State {
     }
 
     fn start(&mut self, request: GripperRequest) {
-        self.request = GripperRequest { position_steps: request.position_steps.min(self.spec.max_steps), ..request };
+        self.request =
+            GripperRequest { position_steps: request.position_steps.min(self.spec.max_steps), ..request };
         let target_m = f64::from(self.request.position_steps) * self.spec.step_m();
         let holding_further = self.object == GripperObject::ContactClosing && target_m >= self.closure_m;
         if !holding_further {
@@ -205,7 +201,7 @@ mod tests {
     fn closes_at_the_requested_speed_and_stops_on_the_object() {
         let clock = Arc::new(SimClock::new());
         let spec = GripperSpec::robotiq_2f85();
-        let (mut hand, mut monitor) = KinematicGripper::new(spec.clone(), Some(0.040), clock.clone());
+        let (mut hand, mut monitor) = kinematic_gripper(spec.clone(), Some(0.040), clock.clone());
         let close = GripperRequest { position_steps: 255, speed: 255, force: 255 };
         hand.command(&ActuatorCommand::Gripper(close)).unwrap();
         // 150 mm/s: 15 mm after 0.1 s, still moving.
@@ -225,7 +221,7 @@ mod tests {
     #[test]
     fn without_an_object_it_reaches_the_request() {
         let clock = Arc::new(SimClock::new());
-        let (mut hand, mut monitor) = KinematicGripper::new(GripperSpec::robotiq_2f85(), None, clock.clone());
+        let (mut hand, mut monitor) = kinematic_gripper(GripperSpec::robotiq_2f85(), None, clock.clone());
         let request = GripperRequest { position_steps: 100, speed: 0, force: 0 };
         hand.command(&ActuatorCommand::Gripper(request)).unwrap();
         let s = at(&clock, 5.0, &mut monitor);

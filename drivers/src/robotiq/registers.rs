@@ -203,7 +203,8 @@ impl RobotiqStatus {
 
     /// A message naming the fault, when there is one.
     pub fn fault_message(&self) -> Option<String> {
-        let gripper = (self.fault != 0).then(|| format!("gFLT {:#04x}: {}", self.fault, fault_text(self.fault)));
+        let gripper =
+            (self.fault != 0).then(|| format!("gFLT {:#04x}: {}", self.fault, fault_text(self.fault)));
         let controller = (self.controller_fault != 0).then(|| {
             format!("kFLT {:#03x}: controller fault (see the controller's manual)", self.controller_fault)
         });
@@ -245,7 +246,8 @@ mod tests {
             let s = RobotiqStatus::from_registers([u16::from(byte) << 8, 0x5A80, 0x1234]);
             assert_eq!(RobotiqStatus::from_registers(s.to_registers()), s);
         }
-        let r = RobotiqRequest { go_to: true, position: 200, speed: 7, force: 9, ..RobotiqRequest::activate() };
+        let r =
+            RobotiqRequest { go_to: true, position: 200, speed: 7, force: 9, ..RobotiqRequest::activate() };
         assert_eq!(r.to_registers(), [0x0900, 0x00C8, 0x0709]);
         assert_eq!(RobotiqRequest::from_registers(r.to_registers()), r);
     }

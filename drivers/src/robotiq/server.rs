@@ -10,7 +10,8 @@ use slidetrack_core::{ActuatorCommand, GripperObject, GripperStatus, HandActuato
 
 use super::modbus::{MAX_READ, Request, Response, exception};
 use super::registers::{
-    ActivationState, CURRENT_STEP_MA, REGISTERS, REQUEST_ADDRESS, RobotiqRequest, RobotiqStatus, STATUS_ADDRESS,
+    ActivationState, CURRENT_STEP_MA, REGISTERS, REQUEST_ADDRESS, RobotiqRequest, RobotiqStatus,
+    STATUS_ADDRESS,
 };
 
 /// `gFLT` while an automatic release runs, and once it has completed.
@@ -64,7 +65,11 @@ pub struct GripperServer {
 
 impl GripperServer {
     /// A gripper in reset whose activation takes `activation_time`.
-    pub fn new(actuator: Box<dyn HandActuator>, monitor: Box<dyn HandMonitor>, activation_time: Duration) -> Self {
+    pub fn new(
+        actuator: Box<dyn HandActuator>,
+        monitor: Box<dyn HandMonitor>,
+        activation_time: Duration,
+    ) -> Self {
         GripperServer {
             actuator,
             monitor,
@@ -152,7 +157,8 @@ impl GripperServer {
         } else {
             return Err(exception::ILLEGAL_DATA_ADDRESS);
         };
-        let first = usize::from(address - if address >= STATUS_ADDRESS { STATUS_ADDRESS } else { REQUEST_ADDRESS });
+        let first =
+            usize::from(address - if address >= STATUS_ADDRESS { STATUS_ADDRESS } else { REQUEST_ADDRESS });
         Ok(block[first..first + usize::from(count)].to_vec())
     }
 
@@ -193,7 +199,11 @@ impl GripperServer {
             return;
         }
         if new.go_to && !active && self.fault < FIRST_MAJOR_FAULT {
-            self.fault = if matches!(self.activation, Activation::Activating { .. }) { ACTION_DELAYED } else { NOT_ACTIVATED };
+            self.fault = if matches!(self.activation, Activation::Activating { .. }) {
+                ACTION_DELAYED
+            } else {
+                NOT_ACTIVATED
+            };
         }
         self.forward();
     }
@@ -203,7 +213,12 @@ impl GripperServer {
     fn forward(&mut self) {
         let r = self.record.request;
         let active = matches!(self.activation, Activation::Active { .. });
-        if !active || !r.go_to || r.auto_release || self.fault >= FIRST_MAJOR_FAULT || self.forwarded == Some(r) {
+        if !active
+            || !r.go_to
+            || r.auto_release
+            || self.fault >= FIRST_MAJOR_FAULT
+            || self.forwarded == Some(r)
+        {
             return;
         }
         self.forwarded = Some(r);

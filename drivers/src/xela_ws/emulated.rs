@@ -109,7 +109,10 @@ pub struct XelaWsLiveEmulator {
 impl XelaWsLiveEmulator {
     /// Starts a local server fed with `source`'s scans, encoded as
     /// `cfg.sensors` and `cfg.emulator` say.
-    pub fn start(source: Box<dyn TactileSource>, cfg: &XelaWsTactileConfig) -> Result<XelaWsLiveEmulator, DeviceError> {
+    pub fn start(
+        source: Box<dyn TactileSource>,
+        cfg: &XelaWsTactileConfig,
+    ) -> Result<XelaWsLiveEmulator, DeviceError> {
         let grids: Vec<_> = cfg.sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect();
         check_emulated_sensors(&source.info(), &grids, EMULATED_URL)?;
         let fail = |e: std::io::Error| {
@@ -120,8 +123,10 @@ impl XelaWsLiveEmulator {
             .map_err(fail)?;
         let stop = Arc::new(AtomicBool::new(false));
         let feed = Feed::new(source, cfg, tx, Arc::clone(&stop));
-        let thread =
-            std::thread::Builder::new().name("xela-ws-feed".into()).spawn(move || feed.run()).map_err(fail)?;
+        let thread = std::thread::Builder::new()
+            .name("xela-ws-feed".into())
+            .spawn(move || feed.run())
+            .map_err(fail)?;
         Ok(XelaWsLiveEmulator { feed: Some(FeedThread { stop, thread: Some(thread) }), server })
     }
 

@@ -17,14 +17,16 @@ use slidetrack_core::{
 use slidetrack_drivers::config::{
     CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, RobotiqConfig, TactileDevice, V4l2CameraConfig,
 };
-use slidetrack_drivers::robotiq::{EmulatedRobotiqGripper, EmulatedRobotiqMonitor, RobotiqGripper, RobotiqMonitor};
+use slidetrack_drivers::robotiq::{
+    EmulatedRobotiqGripper, EmulatedRobotiqMonitor, RobotiqGripper, RobotiqMonitor,
+};
 use slidetrack_drivers::xela_ws::config::EMULATED_URL;
 use slidetrack_drivers::xela_ws::{EmulatedXelaWsTactile, XelaWsTactile};
 use slidetrack_drivers::{
     CanHand, CanTactile, EmulatedSerialTactile, EmulatedSlcanTactile, SerialTactile, V4l2Camera,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, Stream, stream_seed};
+use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, SimHand, Stream, stream_seed};
 
 use super::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
@@ -106,21 +108,10 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         Some(s) => (Some(s.tactile), Some(s.hand), Some(s.truth), Some(s.world)),
         None => (None, None, None, None),
     };
-    let hand: Box<dyn HandActuator> = match (&hw.hand, sim_hand) {
-        (HandDevice::Robotiq(r), _) if !drive => {
-            hand_monitor = Some(watch_robotiq(r, &clock)?);
-            Box::new(UndrivenHand)
-        }
-        _ if !drive => Box::new(UndrivenHand),
-        (HandDevice::Sim, Some(h)) => Box::new(h),
-        (HandDevice::Can(c), _) => Box::new(CanHand::open(c)?),
-        (HandDevice::Robotiq(r), _) => {
-            let (gripper, monitor) = open_robotiq(r, &clock)?;
-            hand_monitor = Some(monitor);
-            gripper
-        }
-        (HandDevice::Sim, None) => bail!("internal: the simulated hand was not built"),
-    };
+    let (hand, driver_monitor) = open_hand(&hw.hand, sim_hand, drive, &clock)?;
+    if driver_monitor.is_some() {
+        hand_monitor = driver_monitor;
+    }
     let camera = open_camera(spec, prepared, world.as_ref(), &clock)?;
     let sim_rate = spec.rig.sim.tactile_rate_hz;
     let mut truth: Option<Box<dyn TruthSource>> = None;
@@ -159,9 +150,36 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata, hand_monitor })
 }
 
+/// A monitor of the hand's status, when its driver reads one.
+type HandWatch = Option<Box<dyn HandMonitor>>;
+
+/// The hand actuator (an [`UndrivenHand`] unless `drive`), and the monitor
+/// of a hand whose own driver reads its status.
+fn open_hand(
+    hand: &HandDevice,
+    sim_hand: Option<SimHand>,
+    drive: bool,
+    clock: &Arc<dyn Clock>,
+) -> Result<(Box<dyn HandActuator>, HandWatch)> {
+    Ok(match (hand, sim_hand) {
+        (HandDevice::Robotiq(r), _) if !drive => (Box::new(UndrivenHand), Some(watch_robotiq(r, clock)?)),
+        _ if !drive => (Box::new(UndrivenHand), None),
+        (HandDevice::Sim, Some(h)) => (Box::new(h), None),
+        (HandDevice::Can(c), _) => (Box::new(CanHand::open(c)?), None),
+        (HandDevice::Robotiq(r), _) => {
+            let (gripper, monitor) = open_robotiq(r, clock)?;
+            (gripper, Some(monitor))
+        }
+        (HandDevice::Sim, None) => bail!("internal: the simulated hand was not built"),
+    })
+}
+
 /// Opens (and activates) the Robotiq gripper, or its emulator for
 /// `port = "emulated"`, with a monitor of the status its link thread reads.
-fn open_robotiq(r: &RobotiqConfig, clock: &Arc<dyn Clock>) -> Result<(Box<dyn HandActuator>, Box<dyn HandMonitor>)> {
+fn open_robotiq(
+    r: &RobotiqConfig,
+    clock: &Arc<dyn Clock>,
+) -> Result<(Box<dyn HandActuator>, Box<dyn HandMonitor>)> {
     if r.port == EMULATED_PORT {
         let gripper = EmulatedRobotiqGripper::start(r, Arc::clone(clock))?;
         let monitor = Box::new(gripper.monitor());

@@ -6,7 +6,8 @@ use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use slidetrack_core::{
-    ActuatorCommand, ErrorKind, GripperObject, GripperRequest, GripperStatus, HandActuator, HandMonitor, WallClock,
+    ActuatorCommand, ErrorKind, GripperObject, GripperRequest, GripperStatus, HandActuator, HandMonitor,
+    WallClock,
 };
 
 use super::*;
@@ -23,13 +24,18 @@ fn config(path: &str) -> RobotiqConfig {
 }
 
 fn open(emulator: &RobotiqEmulator) -> RobotiqGripper {
-    RobotiqGripper::open(&config(emulator.path()), Arc::new(WallClock::start())).expect("the gripper activates")
+    RobotiqGripper::open(&config(emulator.path()), Arc::new(WallClock::start()))
+        .expect("the gripper activates")
 }
 
 const CLOSE: GripperRequest = GripperRequest { position_steps: 255, speed: 255, force: 255 };
 
 /// Polls `monitor` until `done` holds for its status, for at most `within`.
-fn wait_for(monitor: &mut RobotiqMonitor, within: Duration, done: impl Fn(&GripperStatus) -> bool) -> GripperStatus {
+fn wait_for(
+    monitor: &mut RobotiqMonitor,
+    within: Duration,
+    done: impl Fn(&GripperStatus) -> bool,
+) -> GripperStatus {
     let start = Instant::now();
     let mut last = None;
     while start.elapsed() < within {
@@ -185,7 +191,8 @@ fn raw(port: &mut serialport::TTYPort, bytes: &[u8]) -> Vec<u8> {
 fn the_emulator_ignores_bad_crcs_and_other_ids_and_refuses_as_configured() {
     let with_exceptions = RobotiqEmulatorOptions { exceptions: true, ..options() };
     let emulator = RobotiqEmulator::kinematic(RobotiqModel::TwoF85, None, with_exceptions).unwrap();
-    let mut port = serialport::new(emulator.path(), 115_200).timeout(Duration::from_millis(10)).open_native().unwrap();
+    let mut port =
+        serialport::new(emulator.path(), 115_200).timeout(Duration::from_millis(10)).open_native().unwrap();
     let status = Request::ReadHolding { address: STATUS_ADDRESS, count: 3 };
     assert_eq!(raw(&mut port, &status.encode(9)).len(), 11);
     assert!(raw(&mut port, &status.encode(8)).is_empty(), "another device id: silence");
@@ -194,7 +201,10 @@ fn the_emulator_ignores_bad_crcs_and_other_ids_and_refuses_as_configured() {
     assert!(raw(&mut port, &bad).is_empty(), "bad CRC: silence");
     let nowhere = Request::ReadHolding { address: 0x0000, count: 3 };
     let refused = raw(&mut port, &nowhere.encode(9));
-    assert_eq!(Response::decode(&refused, 9, &nowhere), Ok(Response::Exception { function: 3, code: exception::ILLEGAL_DATA_ADDRESS }));
+    assert_eq!(
+        Response::decode(&refused, 9, &nowhere),
+        Ok(Response::Exception { function: 3, code: exception::ILLEGAL_DATA_ADDRESS })
+    );
     let mut unknown = vec![9, 0x2B, 0x0E, 0x01, 0x00];
     unknown.extend_from_slice(&crate::robotiq::modbus::crc16(&unknown).to_le_bytes());
     assert_eq!(raw(&mut port, &unknown)[..3], [9, 0xAB, exception::ILLEGAL_FUNCTION]);
@@ -217,7 +227,9 @@ fn transaction_rate_at_115200_baud() {
         while start.elapsed() < Duration::from_secs(1) {
             if commanding {
                 position = (position + 1) % 256;
-                gripper.command(&ActuatorCommand::Gripper(GripperRequest { position_steps: position, ..CLOSE })).unwrap();
+                gripper
+                    .command(&ActuatorCommand::Gripper(GripperRequest { position_steps: position, ..CLOSE }))
+                    .unwrap();
             }
             std::thread::sleep(Duration::from_micros(500));
         }
@@ -236,13 +248,21 @@ fn transaction_rate_at_115200_baud() {
 #[test]
 #[ignore = "needs a Robotiq gripper: set SLIDETRACK_ROBOTIQ_PORT=/dev/ttyUSB0"]
 fn a_real_gripper_activates_closes_and_opens() {
-    let port = std::env::var("SLIDETRACK_ROBOTIQ_PORT").expect("SLIDETRACK_ROBOTIQ_PORT names the gripper's port");
+    let port =
+        std::env::var("SLIDETRACK_ROBOTIQ_PORT").expect("SLIDETRACK_ROBOTIQ_PORT names the gripper's port");
     let cfg = RobotiqConfig { port, ..RobotiqConfig::default() };
-    let mut gripper = RobotiqGripper::open(&cfg, Arc::new(WallClock::start())).expect("the gripper activates");
+    let mut gripper =
+        RobotiqGripper::open(&cfg, Arc::new(WallClock::start())).expect("the gripper activates");
     let mut monitor = gripper.monitor();
-    gripper.command(&ActuatorCommand::Gripper(GripperRequest { position_steps: 255, speed: 64, force: 0 })).unwrap();
-    wait_for(&mut monitor, Duration::from_secs(5), |s| matches!(s.object, GripperObject::ContactClosing | GripperObject::AtRequest));
+    gripper
+        .command(&ActuatorCommand::Gripper(GripperRequest { position_steps: 255, speed: 64, force: 0 }))
+        .unwrap();
+    wait_for(&mut monitor, Duration::from_secs(5), |s| {
+        matches!(s.object, GripperObject::ContactClosing | GripperObject::AtRequest)
+    });
     gripper.release().unwrap();
-    wait_for(&mut monitor, Duration::from_secs(5), |s| s.requested_steps == 0 && s.object == GripperObject::AtRequest);
+    wait_for(&mut monitor, Duration::from_secs(5), |s| {
+        s.requested_steps == 0 && s.object == GripperObject::AtRequest
+    });
     eprintln!("{:?}", gripper.counters());
 }

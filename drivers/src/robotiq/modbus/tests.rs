@@ -28,10 +28,19 @@ fn write(request: RobotiqRequest) -> Request {
 #[test]
 fn requests_encode_to_the_documented_bytes() {
     assert_eq!(write(RobotiqRequest::reset()).encode(9), hex("09 10 03 E8 00 03 06 00 00 00 00 00 00 73 30"));
-    assert_eq!(write(RobotiqRequest::activate()).encode(9), hex("09 10 03 E8 00 03 06 01 00 00 00 00 00 72 E1"));
+    assert_eq!(
+        write(RobotiqRequest::activate()).encode(9),
+        hex("09 10 03 E8 00 03 06 01 00 00 00 00 00 72 E1")
+    );
     assert_eq!(status_read(1).encode(9), hex("09 03 07 D0 00 01 85 CF"));
     assert_eq!(status_read(3).encode(9), hex("09 03 07 D0 00 03 04 0E"));
-    let full = |position| RobotiqRequest { go_to: true, position, speed: 255, force: 255, ..RobotiqRequest::activate() };
+    let full = |position| RobotiqRequest {
+        go_to: true,
+        position,
+        speed: 255,
+        force: 255,
+        ..RobotiqRequest::activate()
+    };
     assert_eq!(write(full(255)).encode(9), hex("09 10 03 E8 00 03 06 09 00 00 FF FF FF 42 29"));
     assert_eq!(write(full(0)).encode(9), hex("09 10 03 E8 00 03 06 09 00 00 00 FF FF 72 19"));
     // Requests decode back (the emulator's side).
@@ -56,11 +65,17 @@ fn documented_responses_decode_to_the_documented_status() {
     };
     use slidetrack_core::GripperObject::*;
     let closing = three("09 03 06 39 00 00 FF 0E 0A F7 8B");
-    assert_eq!((closing.object, closing.requested_steps, closing.position_steps, closing.current_ma), (Moving, 255, 14, 100));
+    assert_eq!(
+        (closing.object, closing.requested_steps, closing.position_steps, closing.current_ma),
+        (Moving, 255, 14, 100)
+    );
     let closed = three("09 03 06 B9 00 00 FF BD 00 1D 7C");
     assert_eq!((closed.object, closed.position_steps, closed.fault), (ContactClosing, 189, 0));
     let opening = three("09 03 06 39 00 00 00 BB 10 30 E0");
-    assert_eq!((opening.object, opening.requested_steps, opening.position_steps, opening.current_ma), (Moving, 0, 187, 160));
+    assert_eq!(
+        (opening.object, opening.requested_steps, opening.position_steps, opening.current_ma),
+        (Moving, 0, 187, 160)
+    );
     let open = three("09 03 06 F9 00 00 00 0D 00 56 4C");
     assert_eq!((open.object, open.position_steps, open.activated), (AtRequest, 13, true));
 }
@@ -81,7 +96,8 @@ fn fc23_and_exceptions_round_trip() {
     let response = Response::Registers(vec![0x3900, 0x00FF, 0x0E0A]).encode(9, 0x17);
     assert_eq!(response_len(&response[..2], &request), Some(response.len()));
     assert!(matches!(Response::decode(&response, 9, &request), Ok(Response::Registers(_))));
-    let refused = Response::Exception { function: 0x17, code: exception::ILLEGAL_DATA_ADDRESS }.encode(9, 0x17);
+    let refused =
+        Response::Exception { function: 0x17, code: exception::ILLEGAL_DATA_ADDRESS }.encode(9, 0x17);
     assert_eq!(refused[1], 0x97);
     assert_eq!(response_len(&refused[..2], &request), Some(5));
     assert_eq!(Response::decode(&refused, 9, &request), Ok(Response::Exception { function: 0x17, code: 2 }));
@@ -98,14 +114,20 @@ fn corrupted_responses_are_errors_with_the_fault_named() {
     let mut bad_crc = good.clone();
     bad_crc[5] ^= 0x10;
     assert!(matches!(Response::decode(&bad_crc, 9, &request), Err(FrameError::BadCrc { .. })));
-    assert_eq!(Response::decode(&good[..4], 9, &request), Err(FrameError::BadCrc { expected: crc16(&good[..2]), got: 0x3906 }));
+    assert_eq!(
+        Response::decode(&good[..4], 9, &request),
+        Err(FrameError::BadCrc { expected: crc16(&good[..2]), got: 0x3906 })
+    );
     assert_eq!(Response::decode(&good[..3], 9, &request), Err(FrameError::Short { len: 3 }));
     let other = Response::Registers(vec![0x3900, 0x00FF, 0x0E0A]).encode(8, 3);
     assert_eq!(Response::decode(&other, 9, &request), Err(FrameError::WrongDevice { expected: 9, got: 8 }));
     let two = Response::Registers(vec![0x3900, 0x00FF]).encode(9, 3);
     assert!(matches!(Response::decode(&two, 9, &request), Err(FrameError::BadLength { .. })));
     let write_echo = Response::WroteMultiple { address: 0x03E8, count: 3 }.encode(9, 0x10);
-    assert_eq!(Response::decode(&write_echo, 9, &request), Err(FrameError::WrongFunction { expected: 3, got: 0x10 }));
+    assert_eq!(
+        Response::decode(&write_echo, 9, &request),
+        Err(FrameError::WrongFunction { expected: 3, got: 0x10 })
+    );
 }
 
 /// A response frame the client accepted must be one the server could
@@ -113,7 +135,10 @@ fn corrupted_responses_are_errors_with_the_fault_named() {
 fn accepted_frames_are_well_formed(bytes: &[u8], request: &Request) -> Result<(), TestCaseError> {
     if let Ok(response) = Response::decode(bytes, 9, request) {
         prop_assert_eq!(bytes[0], 9);
-        prop_assert_eq!(crc16(&bytes[..bytes.len() - 2]).to_le_bytes(), [bytes[bytes.len() - 2], bytes[bytes.len() - 1]]);
+        prop_assert_eq!(
+            crc16(&bytes[..bytes.len() - 2]).to_le_bytes(),
+            [bytes[bytes.len() - 2], bytes[bytes.len() - 1]]
+        );
         let function = match &response {
             Response::Exception { .. } => request.function() | function::EXCEPTION_BIT,
             _ => request.function(),
