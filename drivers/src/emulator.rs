@@ -242,11 +242,17 @@ impl Worker {
                     bytes[start + 9] ^= 0x04; // a payload bit
                 }
             }
-            if let Err(e) = self.port.master.write_all(&bytes) {
-                if !self.stop.load(Ordering::SeqCst) {
-                    tracing::warn!("serial emulator: writing to {} failed: {e}", self.port.path);
+            match self.port.master.write_all(&bytes) {
+                Ok(()) => {}
+                // Nobody reads the device side (yet): the bytes are lost, as
+                // a device's full output buffer would lose them.
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) => {
+                    if !self.stop.load(Ordering::SeqCst) {
+                        tracing::warn!("serial emulator: writing to {} failed: {e}", self.port.path);
+                    }
+                    return;
                 }
-                return;
             }
         }
         // Keep the device side open until here so that the reader never
