@@ -329,6 +329,18 @@ mod tests {
     }
 
     #[test]
+    fn the_readme_robotiq_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../../README.md");
+        let kind = readme.find("kind = \"robotiq\"\nport").expect("a robotiq example");
+        let start = readme[..kind].rfind("```toml\n").expect("a toml block") + 8;
+        let end = start + readme[start..].find("```").expect("closed block");
+        let cfg: RigConfig = parse_toml(&readme[start..end], "README.md").unwrap();
+        cfg.validate().unwrap();
+        let hw = cfg.hw.expect("a [hw] table");
+        assert_eq!(describe(&hw), "rig robotiq-rig: tactile sim, camera sim, hand Robotiq 2f85 /dev/ttyUSB0");
+    }
+
+    #[test]
     fn a_rig_config_with_hw_round_trips_through_the_session_metadata() {
         let text = "[hw]\nname = \"x\"\n[hw.tactile]\nkind = \"serial\"\nport = \"emulated\"\n";
         let cfg: RigConfig = parse_toml(text, "rig.toml").unwrap();
