@@ -95,3 +95,25 @@ fn with_exceptions_on_a_bad_address_is_refused() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert_eq!(stdout.lines().collect::<Vec<_>>(), ["illegal", "[0, 0, 0]"], "reset gripper: all zero");
 }
+
+#[test]
+fn record_watches_the_gripper_on_hand_state_without_commanding_it() {
+    let dir = common::tempdir();
+    let rig = dir.path().join("rig.toml");
+    let text = "[hw]\nname = \"robotiq-watch\"\n[hw.camera]\nkind = \"none\"\n[hw.hand]\nkind = \"robotiq\"\n\
+                port = \"emulated\"\nmodel = \"hand-e\"\n";
+    std::fs::write(&rig, text).expect("rig.toml written");
+    let file = dir.path().join("watch.mcap");
+    let (rig, f) = (rig.to_str().expect("utf-8"), file.to_str().expect("utf-8"));
+    common::ok(&["-q", "record", "--rig", "hw", "--config", rig, "--duration", "1", "--out", f]);
+    let read = slidetrack_session::ReadOptions::default();
+    let hand =
+        slidetrack_session::read_channel::<slidetrack_session::HandState>(&file, read).expect("/hand/state");
+    assert!(hand.len() > 50, "{} hand states in 1 s", hand.len());
+    for (_, h) in &hand {
+        let g = h.gripper.expect("the gripper's registers");
+        // Watched, never activated: gSTA = 0, fingers open (Hand-E: 50 mm).
+        assert!(!g.activated && g.fault == 0 && g.requested == 0, "{g:?}");
+        assert!(h.opening.is_some_and(|o| (o - 0.050).abs() < 1e-9), "{h:?}");
+    }
+}
