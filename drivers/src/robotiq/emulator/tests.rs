@@ -167,7 +167,7 @@ fn line_noise_is_counted_and_never_acted_on() {
     }
     assert_eq!(statuses.last().map(|s| (s.position_steps, s.object)), Some((200, GripperObject::AtRequest)));
     let c = gripper.counters();
-    assert!(c.bad_crc > 0 && c.ok > 2 * c.bad_crc, "{c:?}");
+    assert!(c.bad_crc > 0 && c.ok >= 2 * c.bad_crc, "{c:?}");
     assert_eq!(emulator.record().server.commands, 1, "the request reached the gripper once");
     gripper.command(&ActuatorCommand::Gripper(request)).expect("noise alone is no error");
 }
