@@ -6,6 +6,7 @@
 # Crashing inputs land in fuzz/artifacts/, the corpus grows in fuzz/corpus/.
 # The SLCAN adapter decoder (slcan_decoder) is fuzzed with the others.
 # The xela_server WebSocket JSON decoder (xela_ws_decoder) is fuzzed with the others.
+# The Robotiq Modbus RTU codec (modbus_rtu) is fuzzed with the others.
 #   fuzz/run.sh [SECONDS]
 set -euo pipefail
 cd "$(dirname "$0")"

@@ -14,7 +14,7 @@
 //! kind = "v4l2"              # or "sim", or "none"
 //! device = "/dev/video0"
 //! [hw.hand]
-//! kind = "can"               # or "sim"
+//! kind = "can"               # or "sim", or "robotiq" (see `crate::robotiq::config`)
 //! interface = "can0"
 //! ```
 
@@ -28,6 +28,7 @@ pub use crate::can_config::{CanTactileConfig, IdCollision, SlcanTransport};
 use crate::can_layout::CanMapError;
 use crate::can_protocol::CanLayoutError;
 use crate::hand_can::{HandCanIds, HandFrameError};
+pub use crate::robotiq::config::{RobotiqConfig, RobotiqConfigError, RobotiqEmulatorConfig, RobotiqModel};
 use crate::sensors::{HwSensor, SensorConfigError, default_fingers, default_sensors, validate_sensors};
 use crate::serial_protocol::MAX_TAXELS;
 use crate::xela_ws::config::{EMULATED_URL, XelaConfigError, XelaWsTactileConfig};
@@ -223,6 +224,8 @@ pub enum HandDevice {
     Sim,
     /// The hand on CAN.
     Can(CanHandConfig),
+    /// A Robotiq 2F-85/2F-140/Hand-E gripper on Modbus RTU.
+    Robotiq(RobotiqConfig),
 }
 
 /// The hand on CAN.
@@ -316,6 +319,9 @@ pub enum HwConfigError {
     /// Bad CAN ids of the hand.
     #[error("hw.hand: {0}")]
     HandIds(#[from] HandFrameError),
+    /// A `kind = "robotiq"` hand that cannot work.
+    #[error(transparent)]
+    Robotiq(#[from] RobotiqConfigError),
     /// A V4L2 camera with neither a calibration file nor inline intrinsics,
     /// or inline intrinsics of another size.
     #[error("hw.camera: {0}")]
@@ -406,6 +412,9 @@ impl HwRigConfig {
                 }
                 _ => {}
             }
+        }
+        if let HandDevice::Robotiq(r) = &self.hand {
+            r.validate()?;
         }
         if let HandDevice::Can(h) = &self.hand {
             h.ids().validate()?;

@@ -153,7 +153,7 @@ impl TactileSource for EmulatedSerialTactile {
 /// The configured sensors, `(name, rows, cols)`, must be the simulated ones
 /// taxel for taxel: an emulator sends what the simulator measures, nothing
 /// invented. The error names `device` (the emulated port or URL).
-pub(crate) fn check_emulated_sensors(
+pub fn check_emulated_sensors(
     sim: &TactileInfo,
     configured: &[(&str, u32, u32)],
     device: &str,
@@ -180,7 +180,7 @@ pub(crate) fn check_emulated_sensors(
 }
 
 /// `(name, rows, cols)` of configured sensors, for [`check_emulated_sensors`].
-pub(crate) fn sensor_grids(sensors: &[HwSensor]) -> Vec<(&str, u32, u32)> {
+pub fn sensor_grids(sensors: &[HwSensor]) -> Vec<(&str, u32, u32)> {
     sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect()
 }
 
@@ -242,11 +242,17 @@ impl Worker {
                     bytes[start + 9] ^= 0x04; // a payload bit
                 }
             }
-            if let Err(e) = self.port.master.write_all(&bytes) {
-                if !self.stop.load(Ordering::SeqCst) {
-                    tracing::warn!("serial emulator: writing to {} failed: {e}", self.port.path);
+            match self.port.master.write_all(&bytes) {
+                Ok(()) => {}
+                // Nobody reads the device side (yet): the bytes are lost, as
+                // a device's full output buffer would lose them.
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) => {
+                    if !self.stop.load(Ordering::SeqCst) {
+                        tracing::warn!("serial emulator: writing to {} failed: {e}", self.port.path);
+                    }
+                    return;
                 }
-                return;
             }
         }
         // Keep the device side open until here so that the reader never

@@ -14,7 +14,8 @@
 //! bytes through a pseudo-terminal, [`can_emulator`] as SLCAN lines of an
 //! emulated USB-CAN adapter; [`offline`] decodes captured traffic.
 //! [`xela_ws`] reads XELA's `xela_server` (WebSocket JSON): its decoder, a
-//! blocking client and a local emulator.
+//! blocking client and a local emulator. [`robotiq`] drives Robotiq 2F
+//! grippers over Modbus RTU and emulates one on a pseudo-terminal.
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod can;
@@ -36,6 +37,7 @@ pub mod emulator;
 pub mod hand_can;
 pub mod mjpeg;
 pub mod offline;
+pub mod robotiq;
 pub mod scan;
 pub mod sensors;
 #[cfg(all(feature = "devices", target_os = "linux"))]

@@ -6,6 +6,8 @@ pub mod dataset;
 pub mod dekf_eval;
 pub mod dekf_run;
 pub mod dekf_train;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod emulate;
 pub mod import;
 pub mod marker;
 pub mod observer;

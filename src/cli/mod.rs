@@ -4,6 +4,7 @@
 
 mod camera;
 mod dekf;
+mod emulate;
 mod experiment;
 mod import;
 mod session;
@@ -13,6 +14,7 @@ use clap::{Parser, Subcommand};
 
 pub use camera::*;
 pub use dekf::*;
+pub use emulate::*;
 pub use experiment::*;
 pub use import::*;
 pub use session::*;
@@ -77,6 +79,8 @@ pub enum Command {
     Decode(DecodeArgs),
     /// Turn recordings made elsewhere (the xela-imanlab CSVs) into sessions.
     Import(ImportArgs),
+    /// Serve an emulated device (Robotiq gripper, tactile sensors) where the real one would be.
+    Emulate(EmulateArgs),
 }
 
 #[cfg(test)]
@@ -111,6 +115,30 @@ mod tests {
         );
         assert_eq!(a.out, PathBuf::from("DIR"));
         assert!(!a.run.no_camera);
+    }
+
+    #[test]
+    fn emulate_parses_its_devices() {
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "emulate",
+            "robotiq",
+            "--model",
+            "hand-e",
+            "--object-width-mm",
+            "30",
+        ])
+        .unwrap();
+        let Command::Emulate(EmulateArgs { device: EmulateDevice::Robotiq(a) }) = cli.command else {
+            panic!("not emulate robotiq")
+        };
+        assert_eq!((a.model.as_str(), a.object_width_mm, a.device_id), ("hand-e", Some(30.0), 9));
+        assert!(Cli::try_parse_from(["slidetrack", "emulate", "robotiq", "--model", "3f"]).is_err());
+        assert!(Cli::try_parse_from(["slidetrack", "emulate", "robotiq", "--fault", "16"]).is_err());
+        assert!(
+            Cli::try_parse_from(["slidetrack", "emulate", "xela-server", "--config", "rig.toml"]).is_ok()
+        );
+        assert!(Cli::try_parse_from(["slidetrack", "emulate", "serial"]).is_err(), "--config is required");
     }
 
     #[test]

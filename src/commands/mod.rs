@@ -9,6 +9,8 @@ mod decode;
 mod demo;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod devices;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+mod emulate;
 pub mod eval;
 mod export;
 mod import;
@@ -57,6 +59,10 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Devices(_) => Err(without_devices("devices")),
         Command::Decode(args) => decode::run(&args, quiet),
         Command::Import(args) => import::run(&args, quiet),
+        #[cfg(all(feature = "devices", target_os = "linux"))]
+        Command::Emulate(args) => emulate::run(&args),
+        #[cfg(not(all(feature = "devices", target_os = "linux")))]
+        Command::Emulate(_) => Err(without_devices("emulate")),
     }
 }
 

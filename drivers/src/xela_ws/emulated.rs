@@ -98,6 +98,51 @@ impl TactileSource for EmulatedXelaWsTactile {
     }
 }
 
+/// The server alone, fed with a source's scans, for clients of other
+/// programs (`slidetrack emulate xela-server`): scans made while no client
+/// is connected are lost, as with the real server.
+pub struct XelaWsLiveEmulator {
+    feed: Option<FeedThread>,
+    server: XelaWsEmulator,
+}
+
+impl XelaWsLiveEmulator {
+    /// Starts a local server fed with `source`'s scans, encoded as
+    /// `cfg.sensors` and `cfg.emulator` say.
+    pub fn start(
+        source: Box<dyn TactileSource>,
+        cfg: &XelaWsTactileConfig,
+    ) -> Result<XelaWsLiveEmulator, DeviceError> {
+        let grids: Vec<_> = cfg.sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect();
+        check_emulated_sensors(&source.info(), &grids, EMULATED_URL)?;
+        let fail = |e: std::io::Error| {
+            DeviceError::new(ErrorKind::Other, EMULATED_URL, format!("cannot start the emulator: {e}"))
+        };
+        let (tx, rx) = bounded(8);
+        let server = XelaWsEmulator::start_live(Some(encode_welcome(Some("slidetrack-emulator"))), rx)
+            .map_err(fail)?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let feed = Feed::new(source, cfg, tx, Arc::clone(&stop));
+        let thread = std::thread::Builder::new()
+            .name("xela-ws-feed".into())
+            .spawn(move || feed.run())
+            .map_err(fail)?;
+        Ok(XelaWsLiveEmulator { feed: Some(FeedThread { stop, thread: Some(thread) }), server })
+    }
+
+    /// The URL clients connect to (`ws://127.0.0.1:PORT`).
+    pub fn url(&self) -> String {
+        self.server.url()
+    }
+}
+
+impl Drop for XelaWsLiveEmulator {
+    fn drop(&mut self) {
+        // The feed stops before the server so that it never blocks on a full channel.
+        self.feed.take();
+    }
+}
+
 /// Turns the simulated scans into the server's messages.
 struct Feed {
     source: Box<dyn TactileSource>,

@@ -15,7 +15,10 @@ use slidetrack_core::{
     parse_toml,
 };
 use slidetrack_drivers::config::{
-    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, TactileDevice, V4l2CameraConfig,
+    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, RobotiqConfig, TactileDevice, V4l2CameraConfig,
+};
+use slidetrack_drivers::robotiq::{
+    EmulatedRobotiqGripper, EmulatedRobotiqMonitor, RobotiqGripper, RobotiqMonitor,
 };
 use slidetrack_drivers::xela_ws::config::EMULATED_URL;
 use slidetrack_drivers::xela_ws::{EmulatedXelaWsTactile, XelaWsTactile};
@@ -23,7 +26,7 @@ use slidetrack_drivers::{
     CanHand, CanTactile, EmulatedSerialTactile, EmulatedSlcanTactile, SerialTactile, V4l2Camera,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, Stream, stream_seed};
+use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, SimHand, Stream, stream_seed};
 
 use super::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
@@ -47,6 +50,7 @@ pub fn describe(hw: &HwRigConfig) -> String {
     let hand = match &hw.hand {
         HandDevice::Sim => "sim".to_string(),
         HandDevice::Can(h) => format!("CAN {}", h.interface),
+        HandDevice::Robotiq(r) => format!("Robotiq {} {}", r.model.name(), r.port),
     };
     format!("rig {}: tactile {tactile}, camera {camera}, hand {hand}", hw.name)
 }
@@ -99,17 +103,15 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         || matches!(prepared, Some(PreparedCamera::Sim(_)));
     let sim = needs_world
         .then(|| SimDevices::new(&spec.rig.sim, spec.object, spec.seed, spec.trial, Arc::clone(&clock)));
-    let hand_monitor = sim.as_ref().map(|s| Box::new(s.hand_monitor()) as Box<dyn HandMonitor>);
+    let mut hand_monitor = sim.as_ref().map(|s| Box::new(s.hand_monitor()) as Box<dyn HandMonitor>);
     let (sim_tactile, sim_hand, sim_truth, world) = match sim {
         Some(s) => (Some(s.tactile), Some(s.hand), Some(s.truth), Some(s.world)),
         None => (None, None, None, None),
     };
-    let hand: Box<dyn HandActuator> = match (&hw.hand, sim_hand) {
-        _ if !drive => Box::new(UndrivenHand),
-        (HandDevice::Sim, Some(h)) => Box::new(h),
-        (HandDevice::Can(c), _) => Box::new(CanHand::open(c)?),
-        (HandDevice::Sim, None) => bail!("internal: the simulated hand was not built"),
-    };
+    let (hand, driver_monitor) = open_hand(&hw.hand, sim_hand, drive, &clock)?;
+    if driver_monitor.is_some() {
+        hand_monitor = driver_monitor;
+    }
     let camera = open_camera(spec, prepared, world.as_ref(), &clock)?;
     let sim_rate = spec.rig.sim.tactile_rate_hz;
     let mut truth: Option<Box<dyn TruthSource>> = None;
@@ -146,6 +148,54 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     let rig = Rig { tactile, hand, camera, clock, truth };
     let extra_metadata = std::collections::BTreeMap::new();
     Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata, hand_monitor })
+}
+
+/// A monitor of the hand's status, when its driver reads one.
+type HandWatch = Option<Box<dyn HandMonitor>>;
+
+/// The hand actuator (an [`UndrivenHand`] unless `drive`), and the monitor
+/// of a hand whose own driver reads its status.
+fn open_hand(
+    hand: &HandDevice,
+    sim_hand: Option<SimHand>,
+    drive: bool,
+    clock: &Arc<dyn Clock>,
+) -> Result<(Box<dyn HandActuator>, HandWatch)> {
+    Ok(match (hand, sim_hand) {
+        (HandDevice::Robotiq(r), _) if !drive => (Box::new(UndrivenHand), Some(watch_robotiq(r, clock)?)),
+        _ if !drive => (Box::new(UndrivenHand), None),
+        (HandDevice::Sim, Some(h)) => (Box::new(h), None),
+        (HandDevice::Can(c), _) => (Box::new(CanHand::open(c)?), None),
+        (HandDevice::Robotiq(r), _) => {
+            let (gripper, monitor) = open_robotiq(r, clock)?;
+            (gripper, Some(monitor))
+        }
+        (HandDevice::Sim, None) => bail!("internal: the simulated hand was not built"),
+    })
+}
+
+/// Opens (and activates) the Robotiq gripper, or its emulator for
+/// `port = "emulated"`, with a monitor of the status its link thread reads.
+fn open_robotiq(
+    r: &RobotiqConfig,
+    clock: &Arc<dyn Clock>,
+) -> Result<(Box<dyn HandActuator>, Box<dyn HandMonitor>)> {
+    if r.port == EMULATED_PORT {
+        let gripper = EmulatedRobotiqGripper::start(r, Arc::clone(clock))?;
+        let monitor = Box::new(gripper.monitor());
+        return Ok((Box::new(gripper), monitor));
+    }
+    let gripper = RobotiqGripper::open(r, Arc::clone(clock))?;
+    let monitor = Box::new(gripper.monitor());
+    Ok((Box::new(gripper), monitor))
+}
+
+/// Watches the Robotiq gripper's status without activating or commanding it.
+fn watch_robotiq(r: &RobotiqConfig, clock: &Arc<dyn Clock>) -> Result<Box<dyn HandMonitor>> {
+    if r.port == EMULATED_PORT {
+        return Ok(Box::new(EmulatedRobotiqMonitor::start(r, Arc::clone(clock))?));
+    }
+    Ok(Box::new(RobotiqMonitor::watch(r, Arc::clone(clock))?))
 }
 
 /// The slow set-up of the camera (marker, renderer, calibration) and its
@@ -276,6 +326,18 @@ mod tests {
             describe(&hw),
             "rig xela-gripper: tactile xela_server ws://192.168.0.21:5000, camera sim, hand sim"
         );
+    }
+
+    #[test]
+    fn the_readme_robotiq_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../../README.md");
+        let kind = readme.find("kind = \"robotiq\"\nport").expect("a robotiq example");
+        let start = readme[..kind].rfind("```toml\n").expect("a toml block") + 8;
+        let end = start + readme[start..].find("```").expect("closed block");
+        let cfg: RigConfig = parse_toml(&readme[start..end], "README.md").unwrap();
+        cfg.validate().unwrap();
+        let hw = cfg.hw.expect("a [hw] table");
+        assert_eq!(describe(&hw), "rig robotiq-rig: tactile sim, camera sim, hand Robotiq 2f85 /dev/ttyUSB0");
     }
 
     #[test]
