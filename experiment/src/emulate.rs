@@ -178,7 +178,7 @@ impl Drop for SimulatedTrials {
 fn run_one(spec: &TrialSpec, tx: &SyncSender<TactileSample>, stop: &AtomicBool) -> Result<()> {
     let mut setup = build_sim_rig(spec)?;
     let fingers = setup.tactile_info.finger_map().context("the simulated taxel layout")?;
-    let mut protocol = protocol_for(spec.rig, spec.object, spec.duration_s, fingers);
+    let mut protocol = protocol_for(spec.rig, spec.object, spec.duration_s, fingers, &setup.rig.hand.spec());
     let mut observer = Teed { tx: tx.clone() };
     run_trial(&mut setup.rig, &mut protocol, &mut observer, stop);
     Ok(())

@@ -428,9 +428,9 @@ pub struct HandState {
     /// Opening between the fingertips (m), for grippers that report it;
     /// `null` for hands that do not.
     pub opening: Option<f64>,
-    /// A gripper's status registers, for grippers that report them
-    /// (absent for other hands).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// A gripper's status registers, for grippers that report them; `null`
+    /// for other hands (and absent in sessions recorded before it existed).
+    #[serde(default)]
     pub gripper: Option<GripperState>,
 }
 

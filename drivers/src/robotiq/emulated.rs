@@ -34,6 +34,20 @@ impl EmulatedRobotiqGripper {
         Ok(EmulatedRobotiqGripper { gripper: RobotiqGripper::open(&on_pty, clock)?, _emulator: emulator })
     }
 
+    /// Starts the emulator serving `actuator` and `monitor` (the simulated
+    /// gripper, so that emulated sensors feel what it does), then opens (and
+    /// activates) it with `cfg`.
+    pub fn serving(
+        actuator: Box<dyn HandActuator>,
+        monitor: Box<dyn HandMonitor>,
+        cfg: &RobotiqConfig,
+        clock: Arc<dyn Clock>,
+    ) -> Result<EmulatedRobotiqGripper, DeviceError> {
+        let emulator = RobotiqEmulator::start(actuator, monitor, RobotiqEmulatorOptions::from_config(cfg))?;
+        let on_pty = RobotiqConfig { port: emulator.path().to_string(), ..cfg.clone() };
+        Ok(EmulatedRobotiqGripper { gripper: RobotiqGripper::open(&on_pty, clock)?, _emulator: emulator })
+    }
+
     /// The driver's monitor.
     pub fn monitor(&self) -> RobotiqMonitor {
         self.gripper.monitor()

@@ -26,7 +26,9 @@ use slidetrack_drivers::{
     CanHand, CanTactile, EmulatedSerialTactile, EmulatedSlcanTactile, SerialTactile, V4l2Camera,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{SharedWorld, SimCamera, SimDevices, SimHand, Stream, stream_seed};
+use slidetrack_sim::{
+    HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, SimHandMonitor, Stream, stream_seed,
+};
 
 use super::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
@@ -88,10 +90,17 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         _ => false,
     };
     let drive = hand_use == HandUse::Drive;
-    if emulated && drive && !matches!(hw.hand, HandDevice::Sim) {
+    let gripper_on_world = drive && emulated && emulated_robotiq(&hw.hand);
+    if emulated && drive && !matches!(hw.hand, HandDevice::Sim) && !gripper_on_world {
         bail!(
-            "hw.tactile port = \"emulated\" (serial or slcan, or url = \"emulated\") needs hw.hand kind = \"sim\": \
-             the emulated sensors feel the simulated hand"
+            "hw.tactile port = \"emulated\" (serial or slcan, or url = \"emulated\") needs hw.hand kind = \"sim\" \
+             or kind = \"robotiq\" with port = \"emulated\": the emulated sensors feel the simulated hand"
+        );
+    }
+    if gripper_on_world && spec.rig.sim.hand != HandKind::Gripper {
+        bail!(
+            "hw.hand kind = \"robotiq\" with port = \"emulated\" beside emulated sensors needs [sim] hand = \"gripper\": \
+             the emulated Robotiq is the simulated gripper the sensors feel"
         );
     }
     let (prepared, markers) = prepare_camera(spec, &hw.camera)?;
@@ -100,6 +109,7 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     let needs_world = matches!(hw.tactile, TactileDevice::Sim)
         || emulated
         || (drive && matches!(hw.hand, HandDevice::Sim))
+        || gripper_on_world
         || matches!(prepared, Some(PreparedCamera::Sim(_)));
     let sim = needs_world
         .then(|| SimDevices::new(&spec.rig.sim, spec.object, spec.seed, spec.trial, Arc::clone(&clock)));
@@ -108,7 +118,18 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         Some(s) => (Some(s.tactile), Some(s.hand), Some(s.truth), Some(s.world)),
         None => (None, None, None, None),
     };
-    let (hand, driver_monitor) = open_hand(&hw.hand, sim_hand, drive, &clock)?;
+    let (hand, driver_monitor) = match (&hw.hand, sim_hand, world.as_ref()) {
+        (HandDevice::Robotiq(r), Some(sim_hand), Some(world)) if gripper_on_world => {
+            // The emulator serves the simulated gripper itself: the rig talks
+            // Modbus to it through a pty, the world moves as it is told.
+            let monitor = Box::new(SimHandMonitor::new(world.clone()));
+            let gripper =
+                EmulatedRobotiqGripper::serving(Box::new(sim_hand), monitor, r, Arc::clone(&clock))?;
+            let driver_monitor = Box::new(gripper.monitor()) as Box<dyn HandMonitor>;
+            (Box::new(gripper) as Box<dyn HandActuator>, Some(driver_monitor))
+        }
+        (_, sim_hand, _) => open_hand(&hw.hand, sim_hand, drive, &clock)?,
+    };
     if driver_monitor.is_some() {
         hand_monitor = driver_monitor;
     }
@@ -157,7 +178,7 @@ type HandWatch = Option<Box<dyn HandMonitor>>;
 /// of a hand whose own driver reads its status.
 fn open_hand(
     hand: &HandDevice,
-    sim_hand: Option<SimHand>,
+    sim_hand: Option<SimActuator>,
     drive: bool,
     clock: &Arc<dyn Clock>,
 ) -> Result<(Box<dyn HandActuator>, HandWatch)> {
@@ -188,6 +209,11 @@ fn open_robotiq(
     let gripper = RobotiqGripper::open(r, Arc::clone(clock))?;
     let monitor = Box::new(gripper.monitor());
     Ok((Box::new(gripper), monitor))
+}
+
+/// True for a Robotiq hand whose port is the emulator.
+fn emulated_robotiq(hand: &HandDevice) -> bool {
+    matches!(hand, HandDevice::Robotiq(r) if r.port == EMULATED_PORT)
 }
 
 /// Watches the Robotiq gripper's status without activating or commanding it.

@@ -208,6 +208,7 @@ pub fn configured_actuator(rig: &RigConfig) -> ActuatorSpec {
         Some(slidetrack_drivers::config::HandDevice::Can(c)) => {
             ActuatorSpec::FingerVolts { max_volts: c.max_volts }
         }
+        Some(slidetrack_drivers::config::HandDevice::Robotiq(r)) => ActuatorSpec::Gripper(r.model.spec()),
         _ if rig.sim.hand == HandKind::Gripper => ActuatorSpec::Gripper(rig.sim.gripper.spec()),
         _ => ActuatorSpec::FingerVolts { max_volts: rig.sim.max_volts },
     }

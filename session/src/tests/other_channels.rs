@@ -61,6 +61,20 @@ pub(super) fn log_other_channels(rec: &Recorder) {
             t,
             HandState { finger_travel: vec![0.001 * k, 0.002, 0.0], opening: Some(0.05), gripper: None },
         );
+        let gripper = GripperState {
+            activated: true,
+            object: 2,
+            fault: 0,
+            requested: 140 + i as u16,
+            position: 138,
+            current_ma: 250,
+        };
+        log_one(
+            rec,
+            t,
+            HandState { finger_travel: vec![0.01, 0.01], opening: Some(0.04), gripper: Some(gripper) },
+        );
+        log_one(rec, t, GripperCommand { position: 140 + i as u16, speed: 128, force: 64, clamped: i == 1 });
         log_one(rec, t, TactileDerivative { values: vec![1.5, -2.25, 0.0, k] });
         log_one(rec, t, DekfEstimate(sliding(k)));
         log_one(rec, t, ArucoEstimate(sliding(k + 1.0)));

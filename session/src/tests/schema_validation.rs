@@ -192,7 +192,7 @@ fn integer_bounds_and_nulls_are_exactly_those_of_the_rust_types() {
                 "/reprojection_error_px",
             ]
         } else if spec.schema_name == HandState::SCHEMA_NAME {
-            &["/opening"]
+            &["/gripper", "/opening"]
         } else {
             &[]
         };
