@@ -4,8 +4,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use slidetrack_core::{
-    ActuatorCommand, Camera, Clock, DecoderCounters, DeviceError, Frame, HandActuator, Phase, SimTruth,
-    TactileSample, TactileSource, TimeNs, TruthSource,
+    ActuatorCommand, Camera, Clock, DecoderCounters, DeviceError, Frame, HandActuator, HandMonitor,
+    HandStatus, Phase, SimTruth, TactileSample, TactileSource, TimeNs, TruthSource,
 };
 
 use crate::protocol::{Baseline, ControlRecord, HandAction, Protocol, ProtocolEvent, Tare};
@@ -23,6 +23,9 @@ pub struct Rig {
     pub clock: Arc<dyn Clock>,
     /// The simulator's truth, on the simulated rig.
     pub truth: Option<Box<dyn TruthSource>>,
+    /// Reads the hand's own status (a gripper's registers, the fingers'
+    /// travel), when the hand can tell.
+    pub hand_monitor: Option<Box<dyn HandMonitor>>,
 }
 
 /// A failure of a consumer of the trial's data (the recorder, a detector).
@@ -54,6 +57,11 @@ pub trait TrialObserver {
     fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError>;
     /// A phase change or an abort.
     fn on_event(&mut self, t: TimeNs, event: &ProtocolEvent) -> Result<(), ObserverError>;
+    /// A status the hand reported about itself (after each scan, when there
+    /// is a new one).
+    fn on_hand_status(&mut self, _status: &HandStatus) -> Result<(), ObserverError> {
+        Ok(())
+    }
     /// The tactile decoder's counters after a scan, and once more when the
     /// tactile source fails (sources that decode a stream only).
     fn on_decoder(&mut self, _t: TimeNs, _counters: &DecoderCounters) -> Result<(), ObserverError> {
@@ -166,6 +174,16 @@ fn observe_scan(
         }
         let (applied, limited) = command.limited_to(&rig.hand.spec()).unwrap_or((command, false));
         observer.on_command(t, &applied, limited)?;
+    }
+    if let Some(monitor) = rig.hand_monitor.as_mut() {
+        match monitor.status() {
+            Ok(Some(status)) => observer.on_hand_status(&status)?,
+            Ok(None) => {}
+            Err(e) => {
+                emit(observer, t, protocol.device_error(e));
+                return Ok(());
+            }
+        }
     }
     if let Some(camera) = rig.camera.as_mut() {
         loop {

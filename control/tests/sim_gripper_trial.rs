@@ -97,6 +97,7 @@ fn run(object: &str, seed: u64, trial: u32, duration_s: f64) -> (TrialOutcome, C
         camera: None,
         clock,
         truth: Some(Box::new(sim.truth)),
+        hand_monitor: None,
     };
     let e = &obj.experiment;
     let profile = GraspProfile {

@@ -74,6 +74,7 @@ fn run_object(obj: &ObjectConfig, seed: u64, trial: u32, duration_s: f64) -> (Tr
         camera: None,
         clock,
         truth: Some(Box::new(sim.truth)),
+        hand_monitor: None,
     };
     let e = &obj.experiment;
     let profile = GraspProfile {

@@ -236,13 +236,6 @@ impl<'a> SessionObserver<'a> {
         Ok(())
     }
 
-    /// Records a status the hand reported, on `/hand/state`.
-    pub fn on_hand_status(&mut self, status: &HandStatus) -> Result<(), ObserverError> {
-        let ch = registered(&self.logger, &mut self.ch.hand_state)?;
-        self.logger.log_json(ch, status.t, status.t, 0, &HandState::new(status))?;
-        Ok(())
-    }
-
     /// The protocol's channels; an error when the observer records without them.
     fn control(&self) -> Result<&ControlChannels, ObserverError> {
         self.ch.control.as_ref().ok_or_else(|| "this recording has no control channels".into())
@@ -250,6 +243,13 @@ impl<'a> SessionObserver<'a> {
 }
 
 impl TrialObserver for SessionObserver<'_> {
+    /// Records a status the hand reported, on `/hand/state`.
+    fn on_hand_status(&mut self, status: &HandStatus) -> Result<(), ObserverError> {
+        let ch = registered(&self.logger, &mut self.ch.hand_state)?;
+        self.logger.log_json(ch, status.t, status.t, 0, &HandState::new(status))?;
+        Ok(())
+    }
+
     fn on_tactile(&mut self, s: &TactileSample) -> Result<(), ObserverError> {
         self.stats.scans += 1;
         let seq = (s.sequence & u64::from(u32::MAX)) as u32;

@@ -92,7 +92,8 @@ pub fn record_devices(
     progress: &mut dyn FnMut(TimeNs),
 ) -> Result<RecordReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut hand_monitor } = setup;
+    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata } = setup;
+    let mut hand_monitor = rig.hand_monitor.take();
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),
         rig: rig_name,

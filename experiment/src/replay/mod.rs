@@ -175,6 +175,7 @@ impl ReplaySession {
             camera,
             clock: shared_clock,
             truth,
+            hand_monitor: None,
         };
         let extra_metadata =
             std::collections::BTreeMap::from([("replay_of".to_string(), self.path.display().to_string())]);
@@ -184,7 +185,6 @@ impl ReplaySession {
             markers,
             rig_name: "replay".into(),
             extra_metadata,
-            hand_monitor: None,
         })
     }
 

@@ -83,26 +83,8 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         );
     };
     tracing::info!("{}", describe(hw));
-    let emulated = match &hw.tactile {
-        TactileDevice::Serial(s) => s.port == EMULATED_PORT,
-        TactileDevice::XelaWs(x) => x.url == EMULATED_URL,
-        TactileDevice::Can(c) => c.slcan.as_ref().is_some_and(|s| s.port == EMULATED_PORT),
-        _ => false,
-    };
     let drive = hand_use == HandUse::Drive;
-    let gripper_on_world = drive && emulated && emulated_robotiq(&hw.hand);
-    if emulated && drive && !matches!(hw.hand, HandDevice::Sim) && !gripper_on_world {
-        bail!(
-            "hw.tactile port = \"emulated\" (serial or slcan, or url = \"emulated\") needs hw.hand kind = \"sim\" \
-             or kind = \"robotiq\" with port = \"emulated\": the emulated sensors feel the simulated hand"
-        );
-    }
-    if gripper_on_world && spec.rig.sim.hand != HandKind::Gripper {
-        bail!(
-            "hw.hand kind = \"robotiq\" with port = \"emulated\" beside emulated sensors needs [sim] hand = \"gripper\": \
-             the emulated Robotiq is the simulated gripper the sensors feel"
-        );
-    }
+    let Emulation { tactile: emulated, gripper_on_world } = emulation(spec, hw, drive)?;
     let (prepared, markers) = prepare_camera(spec, &hw.camera)?;
 
     let clock: Arc<dyn Clock> = Arc::new(WallClock::start());
@@ -166,9 +148,9 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         tracing::warn!("the simulated hand or camera does not feel the real sensors: the loop is open");
     }
     let tactile_info = tactile.info();
-    let rig = Rig { tactile, hand, camera, clock, truth };
+    let rig = Rig { tactile, hand, camera, clock, truth, hand_monitor };
     let extra_metadata = std::collections::BTreeMap::new();
-    Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata, hand_monitor })
+    Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata })
 }
 
 /// A monitor of the hand's status, when its driver reads one.
@@ -209,6 +191,40 @@ fn open_robotiq(
     let gripper = RobotiqGripper::open(r, Arc::clone(clock))?;
     let monitor = Box::new(gripper.monitor());
     Ok((Box::new(gripper), monitor))
+}
+
+/// Which devices are emulated on the simulated world.
+struct Emulation {
+    /// The tactile device is the simulated rig behind its emulator.
+    tactile: bool,
+    /// The Robotiq gripper is the simulated gripper behind its emulator (the
+    /// sensors feel it).
+    gripper_on_world: bool,
+}
+
+/// What `hw` emulates, refusing combinations whose emulated sensors would
+/// feel no hand.
+fn emulation(spec: &TrialSpec, hw: &HwRigConfig, drive: bool) -> Result<Emulation> {
+    let emulated = match &hw.tactile {
+        TactileDevice::Serial(s) => s.port == EMULATED_PORT,
+        TactileDevice::XelaWs(x) => x.url == EMULATED_URL,
+        TactileDevice::Can(c) => c.slcan.as_ref().is_some_and(|s| s.port == EMULATED_PORT),
+        _ => false,
+    };
+    let gripper_on_world = drive && emulated && emulated_robotiq(&hw.hand);
+    if emulated && drive && !matches!(hw.hand, HandDevice::Sim) && !gripper_on_world {
+        bail!(
+            "hw.tactile port = \"emulated\" (serial or slcan, or url = \"emulated\") needs hw.hand kind = \"sim\" \
+             or kind = \"robotiq\" with port = \"emulated\": the emulated sensors feel the simulated hand"
+        );
+    }
+    if gripper_on_world && spec.rig.sim.hand != HandKind::Gripper {
+        bail!(
+            "hw.hand kind = \"robotiq\" with port = \"emulated\" beside emulated sensors needs [sim] hand = \"gripper\": \
+             the emulated Robotiq is the simulated gripper the sensors feel"
+        );
+    }
+    Ok(Emulation { tactile: emulated, gripper_on_world })
 }
 
 /// True for a Robotiq hand whose port is the emulator.

@@ -68,8 +68,6 @@ pub struct RigSetup {
     pub rig_name: String,
     /// Further keys of the session's metadata record (a replay names its recording).
     pub extra_metadata: BTreeMap<String, String>,
-    /// Reads the hand's state without commanding it, when the hand can tell.
-    pub hand_monitor: Option<Box<dyn HandMonitor>>,
 }
 
 /// Whether a rig drives its hand.
@@ -146,15 +144,9 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         camera,
         clock,
         truth: Some(Box::new(sim.truth)),
-    };
-    Ok(RigSetup {
-        rig,
-        tactile_info,
-        markers,
-        rig_name: "sim".into(),
-        extra_metadata: BTreeMap::new(),
         hand_monitor,
-    })
+    };
+    Ok(RigSetup { rig, tactile_info, markers, rig_name: "sim".into(), extra_metadata: BTreeMap::new() })
 }
 
 /// Marker detection for a camera at `hand_from_camera` with `intrinsics`.
