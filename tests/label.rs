@@ -122,3 +122,30 @@ fn sessions_without_marker_detections_are_refused_and_left_untouched() {
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert!(names.iter().all(|n| !n.to_string_lossy().ends_with(".tmp")), "{names:?}");
 }
+
+/// `--tune` chooses the smoother's noise from the marker positions alone
+/// (the simulator's truth is read only to score it), from the defaults and
+/// from the thesis's values alike, and records what it chose.
+#[test]
+fn tuned_ground_truth_meets_the_targets_without_the_simulators_truth() {
+    let dir = tempdir();
+    let file = collect(dir.path(), "box", 5, 20.0, &[]);
+    let path = file.to_str().unwrap();
+    for start in [&[][..], &["--thesis"][..]] {
+        let args = [&["-q", "label", path, "--tune", "--json"][..], start].concat();
+        let out: Value = serde_json::from_str(&ok(&args)).unwrap();
+        let s = &out[0];
+        let (p, v) = (s["rmse"]["position_m"].as_f64().unwrap(), s["rmse"]["velocity_mps"].as_f64().unwrap());
+        eprintln!("tuned from {start:?}: {:.3} mm, {:.3} mm/s; {}", p * 1e3, v * 1e3, s["params"]);
+        // The targets of the issue are 1 mm / 5 mm/s; measured 0.06 mm,
+        // 0.13 mm/s from either start: fail at about twice that.
+        assert!(p <= 0.15e-3 && v <= 0.35e-3, "from {start:?}: {p} m, {v} m/s");
+        assert_eq!(s["params"]["tuned"], true);
+        assert_eq!(s["params"]["gate_max_mahalanobis2"], 25.0, "tuned with the gate");
+    }
+    let info = SessionInfo::read(&file, ReadOptions::default()).unwrap();
+    let channel = info.channels.iter().find(|c| c.topic == "/ground_truth/sliding").unwrap();
+    let params: Value = serde_json::from_str(&channel.metadata["parameters"]).unwrap();
+    assert!(params["tuning"].as_str().unwrap().contains("maximum marginal likelihood"), "{params}");
+    assert_ne!(params["r_m2"].as_f64(), Some(2.5e-7), "the tuned R, not the default: {params}");
+}

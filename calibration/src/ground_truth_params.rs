@@ -66,6 +66,7 @@ pub fn parameters_record(params: &CvSmootherParams, measurements: &Measurements)
         gate_max_mahalanobis2: params.gate.map(|g| g.max_mahalanobis2),
         measurement_source: format!("{}; 0 at the first valid sample", measurements.source),
         axis_in_camera: measurements.axis_in_camera.map(|a| [a.x, a.y, a.z]),
+        tuning: None,
         software_version: env!("CARGO_PKG_VERSION").into(),
     }
 }

@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use slidetrack_core::TimeNs;
-use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams};
+use slidetrack_estimators::cv_tune::{TunedNoise, tune_noise};
 use slidetrack_session::ground_truth::GROUND_TRUTH_PREFIX;
 use slidetrack_session::{
     ArucoDetection, ChannelMessage, GroundTruthMeasurement, GroundTruthSliding, MessageReader, NewChannel,
@@ -31,6 +32,9 @@ pub struct LabelOptions {
     pub recover: bool,
     /// Compute and report, but do not write the file.
     pub dry_run: bool,
+    /// Estimate `q_p`, `q_v` and `R` from the session's marker positions
+    /// (maximum likelihood, starting from `params`) instead of using `params`'.
+    pub tune: bool,
 }
 
 /// What a labelling did.
@@ -55,6 +59,10 @@ pub struct LabelReport {
     pub axis_in_camera: Option<[f64; 3]>,
     /// The file was written (false for a dry run).
     pub written: bool,
+    /// The smoother's parameters used (tuned ones with `tune`).
+    pub params: CvSmootherParams,
+    /// With `tune`: the log-likelihood of the marker positions at `params`.
+    pub tuned_log_likelihood: Option<f64>,
 }
 
 /// Why a session could not be labelled. The file is unchanged in every case.
@@ -143,15 +151,26 @@ pub fn read_inputs(path: &Path, options: ReadOptions) -> Result<SessionInputs, S
     Ok(inputs)
 }
 
-/// The ground truth of `inputs`.
+/// The ground truth of `inputs`, and the parameters it was smoothed with
+/// (tuned on the marker positions with `options.tune`).
 pub fn compute(
     inputs: &SessionInputs,
     options: &LabelOptions,
-) -> Result<Option<(Measurements, GroundTruth)>, GroundTruthError> {
+) -> Result<Option<(Measurements, GroundTruth, Option<TunedNoise>)>, GroundTruthError> {
     let Some(detections) = &inputs.detections else { return Ok(None) };
     let measurements = marker_positions(detections, options.axis, inputs.rig_config.as_deref())?;
-    let gt = smooth_ground_truth(&inputs.scans, &measurements.positions, &options.params)?;
-    Ok(Some((measurements, gt)))
+    let tuned = options.tune.then(|| {
+        let t0 = measurements.positions.first().map_or(0, |p| p.0.0);
+        let samples: Vec<CvSample> = measurements
+            .positions
+            .iter()
+            .map(|(t, z)| CvSample { t_s: (t.0 - t0) as f64 * 1e-9, z_m: Some(*z) })
+            .collect();
+        tune_noise(&options.params, &samples)
+    });
+    let params = tuned.as_ref().map_or(&options.params, |t| &t.params);
+    let gt = smooth_ground_truth(&inputs.scans, &measurements.positions, params)?;
+    Ok(Some((measurements, gt, tuned)))
 }
 
 /// Labels the session at `path`: see the module documentation.
@@ -159,7 +178,7 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
     let read = ReadOptions { recover: options.recover };
     let inputs = read_inputs(path, read)?;
     let gt_err = |source| LabelError::GroundTruth { path: path.to_path_buf(), source };
-    let (measurements, gt) = compute(&inputs, options)
+    let (measurements, gt, tuned) = compute(&inputs, options)
         .map_err(gt_err)?
         .ok_or_else(|| LabelError::NoCamera { path: path.to_path_buf() })?;
     let sliding = gt.sliding();
@@ -181,11 +200,28 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
         rmse,
         axis_in_camera: measurements.axis_in_camera.map(|a| [a.x, a.y, a.z]),
         written: false,
+        params: tuned.as_ref().map_or(options.params, |t| t.params),
+        tuned_log_likelihood: tuned.as_ref().map(|t| t.log_likelihood),
     };
     if options.dry_run {
         return Ok(report);
     }
-    let metadata = parameters_record(&options.params, &measurements).channel_metadata();
+    let mut record = parameters_record(&report.params, &measurements);
+    if let Some(t) = &tuned {
+        record.tuning = Some(format!(
+            "q_position_m2_per_s, q_velocity_m2_per_s3 and r_m2 estimated from the {} marker positions by maximum \
+             marginal likelihood (Kalman filter innovations; a gated position counts at the gate's edge), \
+             Nelder-Mead on their logarithms from q_p = {:e}, q_v = {:e}, R = {:e}: log-likelihood {:.3} after {} \
+             evaluations",
+            t.measurements,
+            options.params.q_position_m2_per_s,
+            options.params.q_velocity_m2_per_s3,
+            options.params.r_m2,
+            t.log_likelihood,
+            t.evaluations
+        ));
+    }
+    let metadata = record.channel_metadata();
     let encode = |source| LabelError::Encode { path: path.to_path_buf(), source };
     let mut sliding_channel = NewChannel::of::<GroundTruthSliding>(metadata.clone());
     for (t, m) in &sliding {

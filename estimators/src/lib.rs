@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod cv_smoother;
+pub mod cv_tune;
 pub mod dekf;
 pub mod derivative;
 pub mod kf;

@@ -124,8 +124,13 @@ pub fn collect(
 
 /// Labels `files` with the default ground-truth parameters, `threads` at a time.
 pub fn label(files: &[PathBuf], threads: usize, stop: &AtomicBool) -> Result<()> {
-    let options =
-        LabelOptions { params: default_params(), axis: AxisSource::Recorded, recover: false, dry_run: false };
+    let options = LabelOptions {
+        params: default_params(),
+        axis: AxisSource::Recorded,
+        recover: false,
+        dry_run: false,
+        tune: false,
+    };
     parallel("label", files, threads, stop, |f| {
         label_session(f, &options).with_context(|| format!("cannot label {}", f.display()))?;
         Ok(())

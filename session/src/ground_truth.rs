@@ -91,6 +91,10 @@ pub struct GroundTruthParameters {
     pub measurement_source: String,
     /// Direction of positive sliding in the camera frame (unit vector), as used.
     pub axis_in_camera: Option<[f64; 3]>,
+    /// How the noise parameters were estimated from the marker positions
+    /// (`label --tune`), or `null` when they were given.
+    #[serde(default)]
+    pub tuning: Option<String>,
     /// The software that labelled the session.
     pub software_version: String,
 }
@@ -150,6 +154,7 @@ mod tests {
             gate_max_mahalanobis2: None,
             measurement_source: "position_on_axis_m".into(),
             axis_in_camera: Some([0.0, 0.5, 0.5]),
+            tuning: None,
             software_version: "0".into(),
         };
         let back = GroundTruthParameters::from_channel_metadata(&p.channel_metadata()).unwrap().unwrap();

@@ -100,6 +100,12 @@ pub struct LabelArgs {
     /// Use every marker position (no outlier gate).
     #[arg(long)]
     pub no_gate: bool,
+    /// Estimate q_p, q_v and R from each session's marker positions
+    /// (maximum likelihood, starting from the values above) and label with
+    /// those; they are recorded in the ground-truth channels' metadata.
+    /// Tunes with the innovation gate (the default one unless --gate says).
+    #[arg(long, conflicts_with = "no_gate")]
+    pub tune: bool,
     /// Compute and report only; leave the files as they are.
     #[arg(long)]
     pub dry_run: bool,

@@ -3,7 +3,9 @@
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use slidetrack_calibration::ground_truth::{AxisSource, default_params, gate, thesis_params};
+use slidetrack_calibration::ground_truth::{
+    AxisSource, DEFAULT_GATE_MAHALANOBIS2, default_params, gate, thesis_params,
+};
 use slidetrack_calibration::label::{LabelOptions, LabelReport, label_session};
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
 
@@ -19,6 +21,7 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
         },
         recover: args.recover,
         dry_run: args.dry_run,
+        tune: args.tune,
     };
     let bar = if quiet || args.files.len() < 2 {
         ProgressBar::hidden()
@@ -86,6 +89,11 @@ fn params(args: &LabelArgs) -> Result<CvSmootherParams> {
     if args.no_gate {
         p.gate = None;
     }
+    if args.tune && p.gate.is_none() {
+        // Without a gate the likelihood has optima that follow every marker
+        // position exactly (R -> 0, a noisy velocity): tune with the default gate.
+        p.gate = gate(Some(DEFAULT_GATE_MAHALANOBIS2));
+    }
     Ok(p)
 }
 
@@ -94,8 +102,18 @@ fn to_text(r: &LabelReport) -> String {
         format!("; vs /sim/truth: RMSE {:.3} mm, {:.2} mm/s", e.position_m * 1e3, e.velocity_mps * 1e3)
     });
     let action = if r.written { "labelled" } else { "computed (dry run, not written)" };
+    let tuned = r.tuned_log_likelihood.map_or(String::new(), |_| {
+        let p = &r.params;
+        format!(
+            "\n  tuned: q_p = {:.3e} m^2/s, q_v = {:.3e} m^2/s^3, R = {:.3e} m^2 (marker noise {:.3} mm)",
+            p.q_position_m2_per_s,
+            p.q_velocity_m2_per_s3,
+            p.r_m2,
+            p.r_m2.sqrt() * 1e3
+        )
+    });
     format!(
-        "{}: {} scans {action}; {} camera frames, {} marker positions ({} missing), {} outliers rejected{rmse}",
+        "{}: {} scans {action}; {} camera frames, {} marker positions ({} missing), {} outliers rejected{rmse}{tuned}",
         r.path.display(),
         r.samples,
         r.frames,
@@ -115,6 +133,14 @@ fn to_json(r: &LabelReport) -> serde_json::Value {
         "rejected_outliers": r.rejected_outliers,
         "written": r.written,
         "axis_in_camera": r.axis_in_camera,
+        "params": {
+            "q_position_m2_per_s": r.params.q_position_m2_per_s,
+            "q_velocity_m2_per_s3": r.params.q_velocity_m2_per_s3,
+            "r_m2": r.params.r_m2,
+            "gate_max_mahalanobis2": r.params.gate.map(|g| g.max_mahalanobis2),
+            "tuned": r.tuned_log_likelihood.is_some(),
+            "log_likelihood": r.tuned_log_likelihood,
+        },
         "rmse": r.rmse.map(|e| json!({
             "position_m": e.position_m,
             "velocity_mps": e.velocity_mps,

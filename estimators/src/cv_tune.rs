@@ -1,0 +1,267 @@
+//! The ground-truth smoother's noise parameters estimated from the marker
+//! positions alone: maximum marginal likelihood of the measurements under
+//! the constant-velocity model (thesis eqs. 6.12-6.14), so that a rig
+//! without a simulator's truth can choose them.
+//!
+//! The Kalman filter's innovations `nu_k ~ N(0, S_k)` factor the likelihood
+//! of the measurements (Särkkä, *Bayesian Filtering and Smoothing*, eq.
+//! 12.11): `log p(z_1:T) = -1/2 sum_k (log(2 pi S_k) + nu_k^2 / S_k)`. With
+//! the innovation gate a rejected position adds the term at the gate's edge,
+//! `-1/2 (log(2 pi S_k) + d2_max)` (a likelihood robust to outliers), so
+//! that shrinking `R` to reject more positions never pays. The three
+//! densities are found on a log scale by Nelder-Mead: three parameters and a
+//! smooth objective do not warrant an optimisation crate.
+
+use crate::cv_smoother::{CvSample, CvSmootherParams};
+
+/// The tuned parameters and how they were found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TunedNoise {
+    /// The parameters: `q_p`, `q_v` and `R` estimated; the rest as given.
+    pub params: CvSmootherParams,
+    /// The log-likelihood of the measurements at `params`.
+    pub log_likelihood: f64,
+    /// Marker positions used.
+    pub measurements: usize,
+    /// Likelihood evaluations.
+    pub evaluations: usize,
+}
+
+/// `log p(z_1:T)` of the measurements of `samples` under `params` (the
+/// gated, robust form of the module documentation). `-inf` when a
+/// covariance stops being positive.
+pub fn log_likelihood(params: &CvSmootherParams, samples: &[CvSample]) -> f64 {
+    let two_pi = std::f64::consts::TAU;
+    let [pp, vv] = params.p0_diag;
+    let (mut x, mut p) = (params.x0, [[pp, 0.0], [0.0, vv]]);
+    let gate = params.gate.map(|g| g.max_mahalanobis2);
+    let mut sum = 0.0;
+    let mut previous: Option<f64> = None;
+    for s in samples {
+        if let Some(t0) = previous {
+            let dt = s.t_s - t0;
+            // x = F x, P = F P F^T + Q with F = [[1, dt], [0, 1]].
+            x = [x[0] + dt * x[1], x[1]];
+            let p00 = p[0][0] + 2.0 * dt * p[0][1] + dt * dt * p[1][1] + params.q_position_m2_per_s * dt;
+            let p01 = p[0][1] + dt * p[1][1];
+            let p11 = p[1][1] + params.q_velocity_m2_per_s3 * dt;
+            p = [[p00, p01], [p01, p11]];
+        }
+        previous = Some(s.t_s);
+        let Some(z) = s.z_m else { continue };
+        let s_var = p[0][0] + params.r_m2;
+        if !(s_var > 0.0 && s_var.is_finite()) {
+            return f64::NEG_INFINITY;
+        }
+        let nu = z - x[0];
+        let d2 = nu * nu / s_var;
+        if let Some(max) = gate
+            && d2 > max
+        {
+            sum -= 0.5 * ((two_pi * s_var).ln() + max);
+            continue;
+        }
+        sum -= 0.5 * ((two_pi * s_var).ln() + d2);
+        // K = P H^T / S, x += K nu, P = (I - K H) P (the scalar-measurement form).
+        let k = [p[0][0] / s_var, p[0][1] / s_var];
+        x = [x[0] + k[0] * nu, x[1] + k[1] * nu];
+        p = [[p[0][0] - k[0] * p[0][0], p[0][1] - k[0] * p[0][1]], [0.0, p[1][1] - k[1] * p[0][1]]];
+        p[1][0] = p[0][1];
+    }
+    sum
+}
+
+/// `q_p`, `q_v` and `R` of `start` replaced by the values that maximise the
+/// likelihood of the measurements in `samples` (times strictly increasing),
+/// searched from `start`'s values. The gate, `x0` and `P0` stay as given.
+pub fn tune_noise(start: &CvSmootherParams, samples: &[CvSample]) -> TunedNoise {
+    let with = |v: &[f64; 3]| CvSmootherParams {
+        q_position_m2_per_s: v[0].exp(),
+        q_velocity_m2_per_s3: v[1].exp(),
+        r_m2: v[2].exp(),
+        ..*start
+    };
+    let cost = |v: &[f64; 3]| {
+        let l = log_likelihood(&with(v), samples);
+        if l.is_finite() { -l } else { f64::INFINITY }
+    };
+    // Nelder-Mead stalls on the ridge where the position walk and the
+    // marker noise trade off; restarting it from its best point with a
+    // fresh, large simplex moves it on, until a restart gains nothing.
+    let mut best = [start.q_position_m2_per_s.ln(), start.q_velocity_m2_per_s3.ln(), start.r_m2.ln()];
+    let (mut best_cost, mut evaluations) = (cost(&best), 1);
+    for _ in 0..8 {
+        let (x, used) = nelder_mead(&cost, best, 10f64.ln(), 1e-6, 2000);
+        evaluations += used;
+        let c = cost(&x);
+        let gained = best_cost - c;
+        if c < best_cost {
+            (best, best_cost) = (x, c);
+        }
+        if gained.is_nan() || gained < 1e-3 {
+            break;
+        }
+    }
+    let params = with(&best);
+    TunedNoise {
+        log_likelihood: log_likelihood(&params, samples),
+        params,
+        measurements: samples.iter().filter(|s| s.z_m.is_some()).count(),
+        evaluations,
+    }
+}
+
+/// Minimises `f` from `x0` with the Nelder-Mead simplex (reflection 1,
+/// expansion 2, contraction and shrink 1/2), the first simplex `step` away
+/// along each axis; stops when the simplex's values differ by less than
+/// `tolerance` or after `max_evaluations`. Returns the best point and the
+/// evaluations used.
+fn nelder_mead(
+    f: &impl Fn(&[f64; 3]) -> f64,
+    x0: [f64; 3],
+    step: f64,
+    tolerance: f64,
+    max_evaluations: usize,
+) -> ([f64; 3], usize) {
+    let mut simplex: Vec<([f64; 3], f64)> = (0..4)
+        .map(|i| {
+            let mut x = x0;
+            if i > 0 {
+                x[i - 1] += step;
+            }
+            (x, f(&x))
+        })
+        .collect();
+    let mut evaluations = 4;
+    let along =
+        |a: &[f64; 3], b: &[f64; 3], t: f64| -> [f64; 3] { [0, 1, 2].map(|j| a[j] + t * (b[j] - a[j])) };
+    while evaluations < max_evaluations {
+        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+        if (simplex[3].1 - simplex[0].1).abs() <= tolerance {
+            break;
+        }
+        let centroid = [0, 1, 2].map(|j| simplex[..3].iter().map(|(x, _)| x[j]).sum::<f64>() / 3.0);
+        let worst = simplex[3];
+        let reflected = along(&centroid, &worst.0, -1.0);
+        let fr = f(&reflected);
+        evaluations += 1;
+        if fr < simplex[0].1 {
+            let expanded = along(&centroid, &worst.0, -2.0);
+            let fe = f(&expanded);
+            evaluations += 1;
+            simplex[3] = if fe < fr { (expanded, fe) } else { (reflected, fr) };
+        } else if fr < simplex[2].1 {
+            simplex[3] = (reflected, fr);
+        } else {
+            let contracted = if fr < worst.1 {
+                along(&centroid, &reflected, 0.5)
+            } else {
+                along(&centroid, &worst.0, 0.5)
+            };
+            let fc = f(&contracted);
+            evaluations += 1;
+            if fc < worst.1.min(fr) {
+                simplex[3] = (contracted, fc);
+            } else {
+                let best = simplex[0].0;
+                for v in simplex.iter_mut().skip(1) {
+                    v.0 = along(&best, &v.0, 0.5);
+                    v.1 = f(&v.0);
+                }
+                evaluations += 3;
+            }
+        }
+    }
+    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+    (simplex[0].0, evaluations)
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    use super::*;
+
+    /// Positions of the constant-velocity model itself at 30 Hz, with the
+    /// densities `q` and the noise `r`.
+    fn simulated(q: [f64; 2], r: f64, n: usize, seed: u64) -> Vec<CvSample> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let dt = 1.0 / 30.0;
+        let (wp, wv) =
+            (Normal::new(0.0, (q[0] * dt).sqrt()).unwrap(), Normal::new(0.0, (q[1] * dt).sqrt()).unwrap());
+        let noise = Normal::new(0.0, r.sqrt()).unwrap();
+        let (mut p, mut v) = (0.0, 0.0);
+        (0..n)
+            .map(|k| {
+                if k > 0 {
+                    p += v * dt + wp.sample(&mut rng);
+                    v += wv.sample(&mut rng);
+                }
+                CvSample { t_s: k as f64 * dt, z_m: Some(p + noise.sample(&mut rng)) }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_likelihood_is_the_gaussian_of_the_first_innovation() {
+        let params = CvSmootherParams { gate: None, ..CvSmootherParams::default() };
+        let z = 0.03;
+        let s = params.p0_diag[0] + params.r_m2;
+        let expected = -0.5 * ((std::f64::consts::TAU * s).ln() + z * z / s);
+        let got = log_likelihood(&params, &[CvSample { t_s: 0.0, z_m: Some(z) }]);
+        assert!((got - expected).abs() < 1e-12, "{got} vs {expected}");
+    }
+
+    #[test]
+    fn the_densities_that_made_the_data_are_found_again() {
+        // Marker noise 0.5 mm, velocity changes of 10 mm/s per root second.
+        let (q, r) = ([1e-9, 1e-4], 2.5e-7);
+        let samples = simulated(q, r, 6000, 3);
+        // Start a decade or more away from each.
+        let start = CvSmootherParams {
+            q_position_m2_per_s: 1e-7,
+            q_velocity_m2_per_s3: 1e-6,
+            r_m2: 1e-5,
+            ..Default::default()
+        };
+        let tuned = tune_noise(&start, &samples);
+        let p = &tuned.params;
+        assert!((p.r_m2 / r - 1.0).abs() < 0.15, "R {} vs {r}", p.r_m2);
+        assert!(
+            (p.q_velocity_m2_per_s3 / q[1] - 1.0).abs() < 0.3,
+            "q_v {} vs {}",
+            p.q_velocity_m2_per_s3,
+            q[1]
+        );
+        // The position walk is small beside the noise (0.02 mm per step
+        // against 0.5 mm): the estimate may not find it, but keeps it small.
+        assert!(p.q_position_m2_per_s / 30.0 < 0.05 * r, "q_p {}", p.q_position_m2_per_s);
+        assert!(
+            tuned.log_likelihood
+                >= log_likelihood(
+                    &CvSmootherParams {
+                        q_position_m2_per_s: q[0],
+                        q_velocity_m2_per_s3: q[1],
+                        r_m2: r,
+                        ..start
+                    },
+                    &samples
+                ) - 1e-6
+        );
+    }
+
+    #[test]
+    fn outliers_behind_the_gate_do_not_drag_the_noise_up() {
+        let (q, r) = ([1e-9, 1e-4], 2.5e-7);
+        let mut samples = simulated(q, r, 3000, 5);
+        for s in samples.iter_mut().skip(50).step_by(97) {
+            s.z_m = s.z_m.map(|z| z + 0.02);
+        }
+        let gate = crate::rts::Gate { max_mahalanobis2: 25.0 };
+        let start = CvSmootherParams { gate: Some(gate), ..Default::default() };
+        let tuned = tune_noise(&start, &samples);
+        assert!((tuned.params.r_m2 / r - 1.0).abs() < 0.3, "R {} vs {r}", tuned.params.r_m2);
+    }
+}
