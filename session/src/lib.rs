@@ -15,6 +15,7 @@ mod error;
 pub mod estimates;
 pub mod ground_truth;
 pub mod messages;
+mod live;
 mod metadata;
 mod reader;
 mod recorder;
@@ -45,6 +46,7 @@ pub use messages::{
     TactileDeviceTime, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz, channel_specs, scan_of,
     sensor_taxels,
 };
+pub use live::{LiveChannel, LiveReceiver, LiveRecord, LiveTap, LiveTapStats, TapClosed};
 pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
 pub use reader::{MessageReader, ReadOptions, read_channel, read_json, release_time};
 pub use recorder::Recorder;
