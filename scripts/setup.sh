@@ -6,7 +6,8 @@
 #   - the kernel's user-space headers (linux/videodev2.h), from which the v4l
 #     crate generates its V4L2 bindings with libclang;
 #   - with --test: a Python virtual environment (target/pyenv) holding the
-#     official MCAP reader and NumPy, used by the interoperability tests.
+#     official MCAP reader, NumPy and websockets (the independent Foxglove
+#     WebSocket client of the live view's tests), used by the interoperability tests.
 # Runs apt-get through sudo only when not root.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -33,10 +34,10 @@ if [ "${#missing[@]}" -gt 0 ]; then
 fi
 
 if [ "${1:-}" = "--test" ]; then
-  if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap, numpy' 2>/dev/null; then
-    echo "setup: creating target/pyenv with the official mcap reader and numpy" >&2
+  if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap, numpy, websockets' 2>/dev/null; then
+    echo "setup: creating target/pyenv with the official mcap reader, numpy and websockets" >&2
     mkdir -p target
     python3 -m venv target/pyenv
-    target/pyenv/bin/python -m pip install -q 'mcap==1.6.0' 'numpy==2.4.6'
+    target/pyenv/bin/python -m pip install -q 'mcap==1.6.0' 'numpy==2.4.6' 'websockets==15.0.1'
   fi
 fi

@@ -6,11 +6,12 @@
 //! it is in the file, its payload moved, not copied. Channel and session
 //! records are always forwarded (there are a few dozen per session);
 //! messages are forwarded only while the viewer side wants them
-//! ([`LiveTap::set_wanted`]) and dropped, and counted, when the queue holds
-//! [`LiveTap::new`]'s limit of messages or payload bytes. Nothing on this path
+//! ([`LiveTap::set_wanted`]), except the latest of each channel, kept and
+//! forwarded when a viewer comes; they are dropped, and counted, when the
+//! queue holds [`LiveTap::new`]'s limit of messages or payload bytes. Nothing on this path
 //! blocks, so the recording is the same with or without a viewer.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -167,11 +168,13 @@ impl LiveTap {
         let _ = self.tx.send(record);
     }
 
-    /// Forwards a written message unless nobody wants it or the queue is full.
-    pub(crate) fn message(&self, record: LiveRecord) {
-        if !self.state.wanted.load(Ordering::Acquire) {
-            return;
-        }
+    /// Whether anyone is subscribed.
+    fn wanted(&self) -> bool {
+        self.state.wanted.load(Ordering::Acquire)
+    }
+
+    /// Forwards a written message unless the queue is full.
+    fn message(&self, record: LiveRecord) {
         let len = match &record {
             LiveRecord::Message { payload, .. } => payload.len(),
             _ => 0,
@@ -220,10 +223,15 @@ fn stats_of(state: &TapState) -> LiveTapStats {
     }
 }
 
-/// A writer thread's use of a tap: the tap and its session number.
+/// A writer thread's use of a tap: the tap, its session number, and the
+/// latest message of each channel while nobody is subscribed (moved in, not
+/// copied), forwarded first when someone subscribes: a viewer that comes
+/// late still gets a calibration logged once at the start.
 pub(crate) struct LiveSession {
-    pub(crate) tap: LiveTap,
-    pub(crate) session: u64,
+    tap: LiveTap,
+    session: u64,
+    latest: HashMap<u16, LiveRecord>,
+    was_wanted: bool,
 }
 
 impl LiveSession {
@@ -231,7 +239,7 @@ impl LiveSession {
     pub(crate) fn start(tap: LiveTap, path: PathBuf) -> LiveSession {
         let session = tap.next_session();
         tap.control(LiveRecord::SessionStarted { session, path });
-        LiveSession { tap, session }
+        LiveSession { tap, session, latest: HashMap::new(), was_wanted: false }
     }
 
     pub(crate) fn channel(&self, id: u16, channel: LiveChannel) {
@@ -239,7 +247,7 @@ impl LiveSession {
     }
 
     pub(crate) fn message(
-        &self,
+        &mut self,
         channel: u16,
         log_time: TimeNs,
         publish_time: TimeNs,
@@ -247,7 +255,24 @@ impl LiveSession {
         payload: Vec<u8>,
     ) {
         let session = self.session;
-        self.tap.message(LiveRecord::Message { session, channel, log_time, publish_time, sequence, payload });
+        let record = LiveRecord::Message { session, channel, log_time, publish_time, sequence, payload };
+        if !self.tap.wanted() {
+            self.latest.insert(channel, record);
+            self.was_wanted = false;
+            return;
+        }
+        if !self.was_wanted {
+            self.was_wanted = true;
+            let mut latest: Vec<_> = self.latest.drain().map(|(_, r)| r).collect();
+            latest.sort_by_key(|r| match r {
+                LiveRecord::Message { log_time, .. } => *log_time,
+                _ => TimeNs::ZERO,
+            });
+            for r in latest {
+                self.tap.message(r);
+            }
+        }
+        self.tap.message(record);
     }
 
     pub(crate) fn finished(&self) {

@@ -118,7 +118,7 @@ impl WriterThread {
                     self.shared.lossy_bytes_queued.fetch_sub(len, Ordering::AcqRel);
                 }
                 self.write_message(channel, log_time, publish_time, sequence, &payload)?;
-                if let Some(live) = &self.live {
+                if let Some(live) = &mut self.live {
                     live.message(channel, log_time, publish_time, sequence, payload);
                 }
             }
@@ -186,9 +186,9 @@ impl WriterThread {
             messages_written: self.messages_written,
             images_dropped: self.shared.images_dropped.load(Ordering::Relaxed),
         };
-        let WriterThread { mut writer, shared, last_log_time, live, .. } = self;
+        let WriterThread { mut writer, shared, last_log_time, mut live, .. } = self;
         let written = write_end(&mut writer, last_log_time, stats, stats_channel, outcome);
-        if let (Some(live), Some(id), Ok(())) = (&live, stats_channel, &written) {
+        if let (Some(live), Some(id), Ok(())) = (&mut live, stats_channel, &written) {
             forward_stats(live, id, last_log_time, stats);
         }
         if let Some(live) = &live {
@@ -242,7 +242,7 @@ fn live_channel(r: ChannelRegistration) -> LiveChannel {
 }
 
 /// Hands the `/recorder/stats` channel and message, written at the end, to the live viewer.
-fn forward_stats(live: &LiveSession, id: u16, t: TimeNs, stats: RecorderStats) {
+fn forward_stats(live: &mut LiveSession, id: u16, t: TimeNs, stats: RecorderStats) {
     let Ok(payload) = serde_json::to_vec(&stats) else { return };
     live.channel(
         id,

@@ -6,6 +6,7 @@ mod camera;
 mod dekf;
 mod experiment;
 mod import;
+mod live;
 mod session;
 mod vision;
 
@@ -15,6 +16,7 @@ pub use camera::*;
 pub use dekf::*;
 pub use experiment::*;
 pub use import::*;
+pub use live::*;
 pub use session::*;
 pub use vision::*;
 
@@ -77,6 +79,8 @@ pub enum Command {
     Decode(DecodeArgs),
     /// Turn recordings made elsewhere (the xela-imanlab CSVs) into sessions.
     Import(ImportArgs),
+    /// Play a recorded session to Foxglove over its WebSocket protocol, at its recorded timing.
+    Play(PlayArgs),
 }
 
 #[cfg(test)]
@@ -179,6 +183,24 @@ mod tests {
         let Command::Plot(p) = cli.command else { panic!("not plot") };
         assert_eq!(p.what, PlotKind::GroundTruth);
     }
+    #[test]
+    fn live_takes_an_optional_address_and_play_its_options() {
+        let parse = |args: &[&str]| Cli::try_parse_from([&["slidetrack"], args].concat());
+        let Command::Collect(a) = parse(&["collect", "--live", "--duration", "2"]).unwrap().command else {
+            panic!("not collect")
+        };
+        assert_eq!((a.run.live.live.as_deref(), a.run.duration), (Some("127.0.0.1:8765"), 2.0));
+        let Command::Track(a) = parse(&["track", "--model", "m", "--live", "0.0.0.0:9000"]).unwrap().command else {
+            panic!("not track")
+        };
+        assert_eq!(a.run.live.live.as_deref(), Some("0.0.0.0:9000"));
+        assert!(parse(&["collect", "--live-image-hz", "5"]).is_err(), "--live-image-hz needs --live");
+        let Command::Play(p) = parse(&["play", "s.mcap", "--rate", "2", "--loop"]).unwrap().command else {
+            panic!("not play")
+        };
+        assert_eq!((p.rate, p.looping, p.live.as_str()), (2.0, true, "127.0.0.1:8765"));
+    }
+
     #[test]
     fn export_needs_a_channel() {
         assert!(Cli::try_parse_from(["slidetrack", "export", "x.mcap"]).is_err());

@@ -3,6 +3,7 @@
 mod aruco;
 mod bench;
 mod bench_dekf;
+mod bench_live;
 mod calibrate;
 mod collect;
 mod decode;
@@ -14,7 +15,9 @@ mod export;
 mod import;
 mod info;
 mod label;
+mod live;
 mod objects;
+mod play;
 mod plot;
 mod record;
 pub mod replay;
@@ -57,6 +60,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Devices(_) => Err(without_devices("devices")),
         Command::Decode(args) => decode::run(&args, quiet),
         Command::Import(args) => import::run(&args, quiet),
+        Command::Play(args) => play::run(&args),
     }
 }
 

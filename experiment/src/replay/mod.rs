@@ -143,6 +143,7 @@ impl ReplaySession {
             realtime: false,
             overwrite,
             path: out,
+            live: None,
         }
     }
 

@@ -12,6 +12,7 @@ use std::sync::Arc;
 use anyhow::{Context, Result, bail};
 use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig};
+use slidetrack_session::LiveTap;
 use slidetrack_core::{
     Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, FingerMap, FingerVolts, HandActuator,
     HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
@@ -54,6 +55,9 @@ pub struct TrialSpec<'a> {
     pub overwrite: bool,
     /// Session file to write.
     pub path: PathBuf,
+    /// Where the recorder also hands what it writes, for a live viewer
+    /// (`--live`); never waited for.
+    pub live: Option<LiveTap>,
 }
 
 /// A rig ready to run, with what the recorder needs to know about it.

@@ -70,6 +70,27 @@ fn an_unwanted_or_full_tap_drops_messages_and_the_file_is_the_same() {
     record_scans(&unwanted, 2000, Some(tap.clone()));
     let records = drain(&rx);
     assert!(records.iter().all(|r| !matches!(r, LiveRecord::Message { .. })), "nobody wanted them");
+    // Subscribed later: the latest message of each channel comes first.
+    let late = dir.file("d.mcap");
+    let options = RecorderOptions { live: Some(tap.clone()), ..RecorderOptions::default() };
+    let rec = Recorder::create_with_options(&late, BTreeMap::new(), options).unwrap();
+    let ch = rec.register::<TactileRaw>(BTreeMap::new()).unwrap();
+    let once = rec.register::<TactileTare>(BTreeMap::new()).unwrap();
+    rec.log_json(&once, t_ms(0), t_ms(0), 0, &TactileTare::default()).unwrap();
+    rec.log_json(&ch, t_ms(1), t_ms(1), 1, &raw(1)).unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    tap.set_wanted(true);
+    rec.log_json(&ch, t_ms(2), t_ms(2), 2, &raw(2)).unwrap();
+    rec.finish().unwrap();
+    let times: Vec<_> = drain(&rx)
+        .into_iter()
+        .filter_map(|r| match r {
+            LiveRecord::Message { log_time, .. } => Some(log_time),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(times, [t_ms(0), t_ms(1), t_ms(2), t_ms(2)], "the tare, the latest scan, the new one, the stats");
+    tap.set_wanted(false);
     assert!(records.iter().any(|r| matches!(r, LiveRecord::Channel { .. })), "channels always go");
 
     // A viewer that never reads: the queue fills, the rest is dropped.
