@@ -14,7 +14,9 @@ use foxglove::websocket::{
     Capability, ChannelView, Client, PlaybackCommand, PlaybackControlRequest, PlaybackState, PlaybackStatus,
     ServerListener,
 };
-use foxglove::{ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle};
+use foxglove::{
+    ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle,
+};
 use mcap::Summary;
 use mcap::records::MessageHeader;
 use mcap::sans_io::indexed_reader::{IndexedReadEvent, IndexedReader, IndexedReaderOptions};
@@ -23,6 +25,7 @@ use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
 use super::address::resolve_addr;
 use super::error::LiveError;
 use super::player_clock::PlayClock;
+use super::server::stop_server;
 
 /// Slowest playback speed a viewer may ask for.
 const MIN_SPEED: f64 = 0.01;
@@ -99,7 +102,8 @@ impl Player {
         };
         let mut channels = HashMap::new();
         for (&id, c) in &summary.channels {
-            let schema = c.schema.as_ref().map(|s| Schema::new(s.name.as_str(), s.encoding.as_str(), s.data.to_vec()));
+            let schema =
+                c.schema.as_ref().map(|s| Schema::new(s.name.as_str(), s.encoding.as_str(), s.data.to_vec()));
             let channel = ChannelBuilder::new(c.topic.as_str())
                 .message_encoding(c.message_encoding.as_str())
                 .schema(schema)
@@ -224,12 +228,21 @@ impl Player {
             match event {
                 IndexedReadEvent::ReadChunkRequest { offset, length } => {
                     self.chunk.resize(length, 0);
-                    let read = self.file.seek(SeekFrom::Start(offset)).and_then(|_| self.file.read_exact(&mut self.chunk));
+                    let read = self
+                        .file
+                        .seek(SeekFrom::Start(offset))
+                        .and_then(|_| self.file.read_exact(&mut self.chunk));
                     if let Err(e) = read {
-                        return Err(LiveError::Session { path: self.path.clone(), detail: format!("cannot read it: {e}") });
+                        return Err(LiveError::Session {
+                            path: self.path.clone(),
+                            detail: format!("cannot read it: {e}"),
+                        });
                     }
                     if let Err(e) = self.reader.insert_chunk_record_data(offset, &self.chunk) {
-                        return Err(LiveError::Session { path: self.path.clone(), detail: format!("corrupt chunk: {e}") });
+                        return Err(LiveError::Session {
+                            path: self.path.clone(),
+                            detail: format!("corrupt chunk: {e}"),
+                        });
                     }
                 }
                 IndexedReadEvent::Message { header, data } => return Ok(Some((header, data.to_vec()))),
@@ -323,7 +336,7 @@ pub fn play(
         })?;
     listening(SocketAddr::new(requested.ip(), server.port()));
     let result = run(&server, &player, &controls, options, stop);
-    server.stop().wait_blocking();
+    stop_server(server);
     result
 }
 

@@ -36,7 +36,8 @@ impl PlayClock {
         if self.paused_at_ns.is_some() {
             return Some(Duration::from_secs(1));
         }
-        let due = self.anchor_wall + Duration::from_secs_f64(log_ns.saturating_sub(self.anchor_log_ns) as f64 / 1e9 / self.speed);
+        let due = self.anchor_wall
+            + Duration::from_secs_f64(log_ns.saturating_sub(self.anchor_log_ns) as f64 / 1e9 / self.speed);
         due.checked_duration_since(Instant::now()).filter(|d| !d.is_zero())
     }
 

@@ -26,7 +26,11 @@ impl StalledViewer {
     /// Connects to the live view at `addr`, reads advertisements until
     /// `min_channels` channels are known (or `timeout` passes), subscribes to
     /// all of them, and stops reading.
-    pub fn subscribe_all(addr: SocketAddr, min_channels: usize, timeout: Duration) -> Result<StalledViewer, LiveError> {
+    pub fn subscribe_all(
+        addr: SocketAddr,
+        min_channels: usize,
+        timeout: Duration,
+    ) -> Result<StalledViewer, LiveError> {
         let probe = |e: &dyn std::fmt::Display| LiveError::Probe(format!("ws://{addr}: {e}"));
         let stream = TcpStream::connect_timeout(&addr, timeout).map_err(|e| probe(&e))?;
         stream.set_read_timeout(Some(Duration::from_millis(50))).map_err(|e| probe(&e))?;
@@ -66,5 +70,7 @@ fn advertised(text: &str) -> Vec<u64> {
     if value["op"] != "advertise" {
         return Vec::new();
     }
-    value["channels"].as_array().map_or_else(Vec::new, |cs| cs.iter().filter_map(|c| c["id"].as_u64()).collect())
+    value["channels"]
+        .as_array()
+        .map_or_else(Vec::new, |cs| cs.iter().filter_map(|c| c["id"].as_u64()).collect())
 }

@@ -59,8 +59,8 @@ impl Publisher {
         image_max_hz: f64,
         subscribed: Receiver<NewSubscriber>,
     ) -> Publisher {
-        let image_min_interval =
-            (image_max_hz.is_finite() && image_max_hz > 0.0).then(|| Duration::from_secs_f64(1.0 / image_max_hz));
+        let image_min_interval = (image_max_hz.is_finite() && image_max_hz > 0.0)
+            .then(|| Duration::from_secs_f64(1.0 / image_max_hz));
         Publisher {
             context,
             server,
@@ -105,7 +105,9 @@ impl Publisher {
                 self.topics.insert(id, channel.topic.clone());
                 self.advertise(channel);
             }
-            LiveRecord::Message { session, channel, log_time, payload, .. } if Some(session) == self.session => {
+            LiveRecord::Message { session, channel, log_time, payload, .. }
+                if Some(session) == self.session =>
+            {
                 let Some(published) = self.topics.get(&channel).and_then(|t| self.by_topic.get_mut(t)) else {
                     return;
                 };
@@ -159,8 +161,13 @@ impl Publisher {
             Ok(channel) => {
                 let image = IMAGE_SCHEMAS.contains(&spec.schema_name.as_str());
                 let min_interval = if image { self.image_min_interval } else { None };
-                let published =
-                    Published { spec: Arc::clone(&spec), channel, latest: None, min_interval, last_sent: None };
+                let published = Published {
+                    spec: Arc::clone(&spec),
+                    channel,
+                    latest: None,
+                    min_interval,
+                    last_sent: None,
+                };
                 self.by_topic.insert(spec.topic.clone(), published);
             }
             Err(e) => tracing::warn!("live: cannot publish {}: {e}", spec.topic),

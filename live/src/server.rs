@@ -13,6 +13,26 @@ use super::address::resolve_addr;
 use super::error::LiveError;
 use super::publisher::{NewSubscriber, Publisher, PublisherStats};
 
+/// Longest wait for the server's connections to close at shutdown: a viewer
+/// that does not read holds its connection open (its socket is full).
+const STOP_WAIT: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// Stops `server`, waiting at most [`STOP_WAIT`] for its connections to close.
+pub(crate) fn stop_server(server: WebSocketServerHandle) {
+    let shutdown = server.stop();
+    let (done, closed) = crossbeam_channel::bounded(1);
+    let waiter = std::thread::Builder::new().name("live-stop".into()).spawn(move || {
+        shutdown.wait_blocking();
+        let _ = done.send(());
+    });
+    if waiter.is_ok() && closed.recv_timeout(STOP_WAIT).is_err() {
+        tracing::debug!("live: a viewer did not close its connection; leaving it");
+    }
+}
+
+/// How long connected viewers get to receive the last messages at shutdown.
+const STOP_GRACE: std::time::Duration = std::time::Duration::from_millis(300);
+
 /// How the live view publishes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LiveOptions {
@@ -30,7 +50,12 @@ pub struct LiveOptions {
 
 impl Default for LiveOptions {
     fn default() -> Self {
-        LiveOptions { image_max_hz: 15.0, queue_messages: 65_536, queue_bytes: 64 << 20, viewer_backlog: 4096 }
+        LiveOptions {
+            image_max_hz: 15.0,
+            queue_messages: 65_536,
+            queue_bytes: 64 << 20,
+            viewer_backlog: 4096,
+        }
     }
 }
 
@@ -105,7 +130,8 @@ impl LiveServer {
         let (tap, rx) = LiveTap::new(options.queue_messages, options.queue_bytes);
         let context = Context::new();
         let (new_subscribers, subscribed) = crossbeam_channel::unbounded();
-        let listener = Arc::new(Subscriptions { active: AtomicUsize::new(0), tap: tap.clone(), new_subscribers });
+        let listener =
+            Arc::new(Subscriptions { active: AtomicUsize::new(0), tap: tap.clone(), new_subscribers });
         let server = WebSocketServer::new()
             .name(format!("slidetrack {}", env!("CARGO_PKG_VERSION")))
             .context(&context)
@@ -154,12 +180,25 @@ impl LiveServer {
     /// Publishes what is still queued, stops the server and returns the counts.
     pub fn shutdown(self) -> LiveStats {
         let LiveServer { server, tap, stop, publisher, .. } = self;
+        // Viewers get a moment to subscribe to the last channels (the
+        // recorder's statistics) and receive the last messages before the
+        // publisher stops; the SDK drops what is still queued at stop.
+        if server.client_count() > 0 {
+            std::thread::sleep(STOP_GRACE);
+        }
         stop.store(true, Ordering::Release);
         let published = publisher.and_then(|t| t.join().ok()).unwrap_or_default();
+        if server.client_count() > 0 {
+            std::thread::sleep(STOP_GRACE / 4);
+        }
         // The publisher has let go of its handle.
         if let Ok(server) = Arc::try_unwrap(server) {
-            server.stop().wait_blocking();
+            stop_server(server);
         }
-        LiveStats { tap: tap.stats(), published: published.published, images_throttled: published.images_throttled }
+        LiveStats {
+            tap: tap.stats(),
+            published: published.published,
+            images_throttled: published.images_throttled,
+        }
     }
 }

@@ -14,8 +14,8 @@ mod csv;
 mod error;
 pub mod estimates;
 pub mod ground_truth;
-pub mod messages;
 mod live;
+pub mod messages;
 mod metadata;
 mod reader;
 mod recorder;
@@ -40,13 +40,13 @@ pub use estimates::{
     ArucoEstimate, DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate, TactileDerivative,
 };
 pub use ground_truth::{GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding};
+pub use live::{LiveChannel, LiveReceiver, LiveRecord, LiveTap, LiveTapStats, TapClosed};
 pub use messages::{
     ChannelMessage, ChannelSpec, FingerSetpoint, GraspControl, HandCommand, HandState, ProtocolEvent,
     RecorderStats, SensorTaxels, SensorValues, SimTruth, TAXEL_LAYOUT_KEY, TactileCalibrated, TactileDecoder,
     TactileDeviceTime, TactileRaw, TactileTare, TactileZeroed, TaxelLayout, Xyz, channel_specs, scan_of,
     sensor_taxels,
 };
-pub use live::{LiveChannel, LiveReceiver, LiveRecord, LiveTap, LiveTapStats, TapClosed};
 pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
 pub use reader::{MessageReader, ReadOptions, read_channel, read_json, release_time};
 pub use recorder::Recorder;

@@ -15,9 +15,9 @@ use slidetrack_core::TimeNs;
 
 use super::channel::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
 use super::error::{SessionError, WriteFailure};
+use super::live::{LiveChannel, LiveSession};
 use super::messages::RecorderStats;
 use super::metadata::{OUTCOME_METADATA, SessionOutcome};
-use super::live::{LiveChannel, LiveSession};
 use super::shared::{ChannelRegistration, Command, Shared};
 
 /// Where a [`Recorder`](super::Recorder) writes: the session file, or any

@@ -190,7 +190,8 @@ mod tests {
             panic!("not collect")
         };
         assert_eq!((a.run.live.live.as_deref(), a.run.duration), (Some("127.0.0.1:8765"), 2.0));
-        let Command::Track(a) = parse(&["track", "--model", "m", "--live", "0.0.0.0:9000"]).unwrap().command else {
+        let Command::Track(a) = parse(&["track", "--model", "m", "--live", "0.0.0.0:9000"]).unwrap().command
+        else {
             panic!("not track")
         };
         assert_eq!(a.run.live.live.as_deref(), Some("0.0.0.0:9000"));

@@ -92,7 +92,8 @@ pub fn measure(args: &BenchArgs, dir: &std::path::Path) -> Result<Vec<serde_json
         run_sim_trial(&warm, &stop, &mut |_| {})?;
         let channels = SessionInfo::read(&warm.path, ReadOptions::default())?.channels.len();
         let viewer = StalledViewer::subscribe_all(server.local_addr(), channels, Duration::from_secs(10))?;
-        let mut pair = Pair { label, session_s: 0.0, without_s: Vec::new(), with_s: Vec::new(), published: 0 };
+        let mut pair =
+            Pair { label, session_s: 0.0, without_s: Vec::new(), with_s: Vec::new(), published: 0 };
         for run in 0..args.runs.max(1) {
             for live in [false, true] {
                 let spec = spec(run, live, args.duration);

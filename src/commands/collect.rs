@@ -7,8 +7,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_control::AbortReason;
 use slidetrack_experiment::rig::{RigKind, TrialSpec, build_rig};
 use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_live::LiveServer;
 use slidetrack_experiment::trial::{TrialReport, prepare_out_dir, record_trial, session_file_name};
+use slidetrack_live::LiveServer;
 use slidetrack_sim::ObjectConfig;
 
 use crate::cli::{CollectArgs, RigArg};

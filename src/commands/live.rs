@@ -14,7 +14,10 @@ pub fn start(args: &LiveArgs) -> Result<Option<LiveServer>> {
     }
     let options = LiveOptions { image_max_hz: args.live_image_hz, ..LiveOptions::default() };
     let server = LiveServer::start(addr, &options)?;
-    eprintln!("live: Foxglove WebSocket server on {} (Foxglove: Open connection > Foxglove WebSocket)", server.url());
+    eprintln!(
+        "live: Foxglove WebSocket server on {} (Foxglove: Open connection > Foxglove WebSocket)",
+        server.url()
+    );
     Ok(Some(server))
 }
 

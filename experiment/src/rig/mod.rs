@@ -12,11 +12,11 @@ use std::sync::Arc;
 use anyhow::{Context, Result, bail};
 use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig};
-use slidetrack_session::LiveTap;
 use slidetrack_core::{
     Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, FingerMap, FingerVolts, HandActuator,
     HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
 };
+use slidetrack_session::LiveTap;
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
 

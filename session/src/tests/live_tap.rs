@@ -89,7 +89,11 @@ fn an_unwanted_or_full_tap_drops_messages_and_the_file_is_the_same() {
             _ => None,
         })
         .collect();
-    assert_eq!(times, [t_ms(0), t_ms(1), t_ms(2), t_ms(2)], "the tare, the latest scan, the new one, the stats");
+    assert_eq!(
+        times,
+        [t_ms(0), t_ms(1), t_ms(2), t_ms(2)],
+        "the tare, the latest scan, the new one, the stats"
+    );
     tap.set_wanted(false);
     assert!(records.iter().any(|r| matches!(r, LiveRecord::Channel { .. })), "channels always go");
 
