@@ -34,7 +34,10 @@ fn spawn_live(args: &[&str]) -> (Child, SocketAddr) {
                 .expect("ADDR");
         }
     };
-    std::thread::spawn(move || lines.map_while(Result::ok).for_each(|l| eprintln!("slidetrack: {l}")));
+    std::thread::Builder::new()
+        .name("slidetrack-stderr".into())
+        .spawn(move || lines.map_while(Result::ok).for_each(|l| eprintln!("slidetrack: {l}")))
+        .expect("stderr thread");
     (child, addr)
 }
 

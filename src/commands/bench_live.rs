@@ -104,8 +104,8 @@ pub fn measure(args: &BenchArgs, dir: &std::path::Path) -> Result<Vec<serde_json
             }
         }
         let subscribed = viewer.subscribed().len();
-        drop(viewer);
         pair.published = server.shutdown().published;
+        drop(viewer);
         if subscribed < channels {
             anyhow::bail!("the viewer subscribed to {subscribed} of {channels} channels");
         }
