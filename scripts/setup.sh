@@ -6,9 +6,10 @@
 #   - the kernel's user-space headers (linux/videodev2.h), from which the v4l
 #     crate generates its V4L2 bindings with libclang;
 #   - with --test: a Python virtual environment (target/pyenv) holding the
-#     official MCAP reader and NumPy, and minimalmodbus with pyserial (an
-#     independent Modbus RTU client for the emulated Robotiq gripper), used
-#     by the interoperability tests.
+#     official MCAP reader and NumPy, minimalmodbus with pyserial (an
+#     independent Modbus RTU client for the emulated Robotiq gripper) and
+#     websockets (the independent Foxglove WebSocket client of the live
+#     view's tests), used by the interoperability tests.
 # Runs apt-get through sudo only when not root.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -35,10 +36,10 @@ if [ "${#missing[@]}" -gt 0 ]; then
 fi
 
 if [ "${1:-}" = "--test" ]; then
-  if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap, numpy, minimalmodbus, serial' 2>/dev/null; then
-    echo "setup: creating target/pyenv with the official mcap reader, numpy, minimalmodbus and pyserial" >&2
+  if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap, numpy, minimalmodbus, serial, websockets' 2>/dev/null; then
+    echo "setup: creating target/pyenv with the official mcap reader, numpy, minimalmodbus, pyserial and websockets" >&2
     mkdir -p target
     python3 -m venv target/pyenv
-    target/pyenv/bin/python -m pip install -q 'mcap==1.6.0' 'numpy==2.4.6' 'minimalmodbus==2.1.1' 'pyserial==3.5'
+    target/pyenv/bin/python -m pip install -q 'mcap==1.6.0' 'numpy==2.4.6' 'minimalmodbus==2.1.1' 'pyserial==3.5' 'websockets==15.0.1'
   fi
 fi

@@ -15,8 +15,12 @@ fn main() -> ExitCode {
         (false, 1) => "info",
         (false, _) => "debug",
     };
+    // The Foxglove SDK reports each message it could not send to a viewer
+    // that went away: one line per message. The live view's own summary
+    // says what matters; -vv shows the SDK's lines.
+    let foxglove = if cli.verbose >= 2 { "" } else { ",foxglove=off" };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("{level}{foxglove}")));
     tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).without_time().init();
     match commands::dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,

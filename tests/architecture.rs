@@ -53,10 +53,11 @@ pub const ALLOWED_DEPENDENCIES: &[Rule] = &[
     rule("drivers",     &["core"],                                                         &["sim"]),
     rule("calibration", &["core", "session", "estimators"],                                &["sim"]),
     rule("vision",      &["core", "render", "session", "estimators"],                      &["sim"]),
+    rule("live",        &["core", "session"],                                              &[]),
     rule("experiment",  &["core", "render", "sim", "session", "drivers", "estimators",
                           "control", "calibration", "vision"],                             &[]),
     rule("slidetrack",  &["core", "render", "sim", "session", "drivers", "estimators",
-                          "control", "calibration", "vision", "experiment"],               &[]),
+                          "control", "calibration", "vision", "live", "experiment"],       &[]),
 ];
 
 /// One row of [`ALLOWED_DEPENDENCIES`].

@@ -123,6 +123,7 @@ impl SimulatedTrials {
             realtime: true,
             overwrite: false,
             path: PathBuf::new(),
+            live: None,
         };
         let info = build_sim_rig(&spec(0))?.tactile_info;
         let (tx, rx) = sync_channel(64);
@@ -148,6 +149,7 @@ impl SimulatedTrials {
                         realtime: true,
                         overwrite: false,
                         path: PathBuf::new(),
+                        live: None,
                     };
                     if let Err(e) = run_one(&spec, &tx, &stop_flag) {
                         tracing::warn!("simulated trial {trial}: {e:#}");

@@ -110,6 +110,7 @@ pub fn collect(
             realtime: false,
             overwrite: true,
             path: partial.clone(),
+            live: None,
         };
         let mut report = run_sim_trial(&t, stop, &mut |_| {})?;
         if let Some(reason) = &report.outcome.abort {

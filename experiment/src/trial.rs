@@ -126,7 +126,8 @@ pub fn record_trial_with<'a>(
         seed: spec.seed,
         started_at: rfc3339_now(),
     };
-    let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
+    let options =
+        RecorderOptions { overwrite: spec.overwrite, live: spec.live.clone(), ..RecorderOptions::default() };
     let mut metadata = metadata.to_map();
     metadata.insert(CYCLES_DURATION_KEY.into(), spec.duration_s.to_string());
     metadata.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(&tactile_info).to_json());

@@ -14,6 +14,7 @@ mod csv;
 mod error;
 pub mod estimates;
 pub mod ground_truth;
+mod live;
 pub mod messages;
 mod metadata;
 mod reader;
@@ -39,6 +40,7 @@ pub use estimates::{
     ArucoEstimate, DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate, TactileDerivative,
 };
 pub use ground_truth::{GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding};
+pub use live::{LiveChannel, LiveReceiver, LiveRecord, LiveTap, LiveTapStats, TapClosed};
 pub use messages::{
     ChannelMessage, ChannelSpec, FingerSetpoint, GraspControl, GripperCommand, GripperState, HandCommand,
     HandState, ProtocolEvent, RecorderStats, SensorTaxels, SensorValues, SimTruth, TAXEL_LAYOUT_KEY,

@@ -12,6 +12,7 @@ use slidetrack_core::TimeNs;
 
 use super::channel::ChannelMessage;
 use super::error::{SessionError, error_chain};
+use super::live::LiveSession;
 use super::messages::RecorderStats;
 use super::metadata::SESSION_METADATA;
 use super::shared::{Command, Shared};
@@ -96,7 +97,8 @@ impl Recorder {
         })?;
         let (tx, rx) = crossbeam_channel::bounded(options.queue_capacity.max(1));
         let shared = Arc::new(Shared::new(path.clone(), options.lossy_queue_bytes));
-        let worker = WriterThread::new(writer, rx, Arc::clone(&shared), options.flush_interval);
+        let live = options.live.map(|tap| LiveSession::start(tap, path.clone()));
+        let worker = WriterThread::new(writer, rx, Arc::clone(&shared), options.flush_interval, live);
         let thread = std::thread::Builder::new()
             .name("session-writer".into())
             .spawn(move || worker.run())

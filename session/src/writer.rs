@@ -14,6 +14,7 @@ use slidetrack_core::TimeNs;
 
 use super::channel::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
 use super::error::SessionError;
+use super::live::LiveTap;
 use super::shared::{ChannelRegistration, Command, Shared, lock};
 
 /// Tuning of a [`Recorder`](super::Recorder). The defaults suit a 1 kHz tactile stream plus a
@@ -36,6 +37,9 @@ pub struct RecorderOptions {
     /// zstd level. 1 (the default) is the fastest standard level, and on
     /// tactile JSON it also compresses better than zstd's default (0, meaning 3).
     pub compression_level: u32,
+    /// Hand every channel and message, once written, to a live viewer
+    /// (see [`LiveTap`]); never waits for it. None by default.
+    pub live: Option<LiveTap>,
 }
 
 impl Default for RecorderOptions {
@@ -47,6 +51,7 @@ impl Default for RecorderOptions {
             lossy_queue_bytes: 64 << 20,
             overwrite: false,
             compression_level: 1,
+            live: None,
         }
     }
 }

@@ -15,9 +15,10 @@ use slidetrack_core::TimeNs;
 
 use super::channel::{ChannelMessage, MESSAGE_ENCODING_JSON, SCHEMA_ENCODING_JSONSCHEMA};
 use super::error::{SessionError, WriteFailure};
+use super::live::{LiveChannel, LiveSession};
 use super::messages::RecorderStats;
 use super::metadata::{OUTCOME_METADATA, SessionOutcome};
-use super::shared::{Command, Shared};
+use super::shared::{ChannelRegistration, Command, Shared};
 
 /// Where a [`Recorder`](super::Recorder) writes: the session file, or any
 /// seekable byte sink (a buffer in memory, a file behind a test's gate).
@@ -49,6 +50,8 @@ pub(crate) struct WriterThread {
     chunk_opened_at: Option<Instant>,
     messages_written: u64,
     last_log_time: TimeNs,
+    /// Where written records go on to a live viewer.
+    live: Option<LiveSession>,
 }
 
 impl WriterThread {
@@ -57,6 +60,7 @@ impl WriterThread {
         rx: Receiver<Command>,
         shared: Arc<Shared>,
         flush_interval: Duration,
+        live: Option<LiveSession>,
     ) -> WriterThread {
         WriterThread {
             writer,
@@ -66,6 +70,7 @@ impl WriterThread {
             chunk_opened_at: None,
             messages_written: 0,
             last_log_time: TimeNs::ZERO,
+            live,
         }
     }
 
@@ -103,6 +108,9 @@ impl WriterThread {
                 };
                 self.writer.add_channel_with_id(id, schema_id, &r.topic, &r.message_encoding, &r.metadata)?;
                 self.chunk_opened_at.get_or_insert_with(Instant::now);
+                if let Some(live) = &self.live {
+                    live.channel(id, live_channel(*r));
+                }
             }
             Command::Message { channel, log_time, publish_time, sequence, payload, lossy } => {
                 if lossy {
@@ -110,6 +118,9 @@ impl WriterThread {
                     self.shared.lossy_bytes_queued.fetch_sub(len, Ordering::AcqRel);
                 }
                 self.write_message(channel, log_time, publish_time, sequence, &payload)?;
+                if let Some(live) = &mut self.live {
+                    live.message(channel, log_time, publish_time, sequence, payload);
+                }
             }
             Command::Attachment { name, media_type, data } => {
                 let attachment = Attachment {
@@ -175,8 +186,14 @@ impl WriterThread {
             messages_written: self.messages_written,
             images_dropped: self.shared.images_dropped.load(Ordering::Relaxed),
         };
-        let WriterThread { mut writer, shared, last_log_time, .. } = self;
+        let WriterThread { mut writer, shared, last_log_time, mut live, .. } = self;
         let written = write_end(&mut writer, last_log_time, stats, stats_channel, outcome);
+        if let (Some(live), Some(id), Ok(())) = (&mut live, stats_channel, &written) {
+            forward_stats(live, id, last_log_time, stats);
+        }
+        if let Some(live) = &live {
+            live.finished();
+        }
         let closed = match written {
             Ok(()) => close(writer),
             Err(failure) => {
@@ -194,8 +211,11 @@ impl WriterThread {
     /// discard everything until `Finish` so producers never block on a dead
     /// writer, then report the failure.
     fn drain(self) -> Result<RecorderStats, SessionError> {
-        let WriterThread { writer, rx, shared, .. } = self;
+        let WriterThread { writer, rx, shared, live, .. } = self;
         abandon(writer);
+        if let Some(live) = &live {
+            live.finished();
+        }
         for cmd in rx.iter() {
             match cmd {
                 Command::Message { lossy: true, payload, .. } => {
@@ -207,6 +227,35 @@ impl WriterThread {
         }
         Err(shared.closed())
     }
+}
+
+/// The live view of a registration.
+fn live_channel(r: ChannelRegistration) -> LiveChannel {
+    LiveChannel {
+        topic: r.topic,
+        schema_name: r.schema_name,
+        schema_encoding: r.schema_encoding,
+        schema_data: r.schema_data,
+        message_encoding: r.message_encoding,
+        metadata: r.metadata,
+    }
+}
+
+/// Hands the `/recorder/stats` channel and message, written at the end, to the live viewer.
+fn forward_stats(live: &mut LiveSession, id: u16, t: TimeNs, stats: RecorderStats) {
+    let Ok(payload) = serde_json::to_vec(&stats) else { return };
+    live.channel(
+        id,
+        LiveChannel {
+            topic: RecorderStats::TOPIC.into(),
+            schema_name: RecorderStats::SCHEMA_NAME.into(),
+            schema_encoding: SCHEMA_ENCODING_JSONSCHEMA.into(),
+            schema_data: RecorderStats::json_schema().to_string().into_bytes(),
+            message_encoding: MESSAGE_ENCODING_JSON.into(),
+            metadata: BTreeMap::new(),
+        },
+    );
+    live.message(id, t, t, 0, payload);
 }
 
 /// Drops a writer without writing anything more: no summary, and bytes still

@@ -6,6 +6,8 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 use slidetrack_vision::TrackerKind;
 
+use super::LiveArgs;
+
 /// Which rig runs the trial, on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum RigArg {
@@ -50,6 +52,9 @@ pub struct ExperimentArgs {
     /// `--seed` and `--trial`).
     #[arg(long, value_name = "FILE")]
     pub session: Option<PathBuf>,
+    /// The live view.
+    #[command(flatten)]
+    pub live: LiveArgs,
 }
 
 /// Arguments of `collect`.
@@ -130,6 +135,9 @@ pub enum BenchWhat {
     Dekf,
     /// Training the dEKF on a thesis-sized simulated set (`--threads` cores).
     DekfTraining,
+    /// Collecting with and without `--live`, a viewer subscribed to every
+    /// channel that never reads (one core; target: at most 10 % slower).
+    CollectLive,
 }
 
 /// Arguments of `bench`.

@@ -7,6 +7,7 @@ mod dekf;
 mod emulate;
 mod experiment;
 mod import;
+mod live;
 mod session;
 mod vision;
 
@@ -17,6 +18,7 @@ pub use dekf::*;
 pub use emulate::*;
 pub use experiment::*;
 pub use import::*;
+pub use live::*;
 pub use session::*;
 pub use vision::*;
 
@@ -81,6 +83,8 @@ pub enum Command {
     Import(ImportArgs),
     /// Serve an emulated device (Robotiq gripper, tactile sensors) where the real one would be.
     Emulate(EmulateArgs),
+    /// Play a recorded session to Foxglove over its WebSocket protocol, at its recorded timing.
+    Play(PlayArgs),
 }
 
 #[cfg(test)]
@@ -207,6 +211,25 @@ mod tests {
         let Command::Plot(p) = cli.command else { panic!("not plot") };
         assert_eq!(p.what, PlotKind::GroundTruth);
     }
+    #[test]
+    fn live_takes_an_optional_address_and_play_its_options() {
+        let parse = |args: &[&str]| Cli::try_parse_from([&["slidetrack"], args].concat());
+        let Command::Collect(a) = parse(&["collect", "--live", "--duration", "2"]).unwrap().command else {
+            panic!("not collect")
+        };
+        assert_eq!((a.run.live.live.as_deref(), a.run.duration), (Some("127.0.0.1:8765"), 2.0));
+        let Command::Track(a) = parse(&["track", "--model", "m", "--live", "0.0.0.0:9000"]).unwrap().command
+        else {
+            panic!("not track")
+        };
+        assert_eq!(a.run.live.live.as_deref(), Some("0.0.0.0:9000"));
+        assert!(parse(&["collect", "--live-image-hz", "5"]).is_err(), "--live-image-hz needs --live");
+        let Command::Play(p) = parse(&["play", "s.mcap", "--rate", "2", "--loop"]).unwrap().command else {
+            panic!("not play")
+        };
+        assert_eq!((p.rate, p.looping, p.live.as_str()), (2.0, true, "127.0.0.1:8765"));
+    }
+
     #[test]
     fn export_needs_a_channel() {
         assert!(Cli::try_parse_from(["slidetrack", "export", "x.mcap"]).is_err());

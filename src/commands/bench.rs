@@ -98,6 +98,12 @@ fn run_in(args: &BenchArgs, dir: &std::path::Path) -> Result<()> {
             print_collect(args, cpu, &results);
         }
     }
+    if args.what.contains(&BenchWhat::CollectLive) {
+        if !args.json {
+            println!("{}", super::bench_live::header(args, cpu));
+        }
+        report.insert("collect_live".into(), json!(super::bench_live::measure(args, dir)?));
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     }
@@ -126,6 +132,7 @@ fn bench_collect(args: &BenchArgs, dir: &std::path::Path) -> Result<Vec<Measurem
                 realtime: false,
                 overwrite: true,
                 path: dir.join(format!("bench-{camera}-{run}.mcap")),
+                live: None,
             };
             let report = run_sim_trial(&spec, &stop, &mut |_| {})?;
             m.wall_s.push(report.wall_s);

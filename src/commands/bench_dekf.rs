@@ -104,6 +104,7 @@ fn thesis_sized_set(dir: &Path, n: u32, duration_s: f64) -> Result<Vec<PathBuf>>
                 realtime: false,
                 overwrite: true,
                 path: dir.join(session_file_name("box", 7, trial)),
+                live: None,
             };
             Ok(run_sim_trial(&spec, &stop, &mut |_| {})?.path)
         })

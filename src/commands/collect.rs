@@ -8,6 +8,7 @@ use slidetrack_control::AbortReason;
 use slidetrack_experiment::rig::{RigKind, TrialSpec, build_rig};
 use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_experiment::trial::{TrialReport, prepare_out_dir, record_trial, session_file_name};
+use slidetrack_live::LiveServer;
 use slidetrack_sim::ObjectConfig;
 
 use crate::cli::{CollectArgs, RigArg};
@@ -43,6 +44,8 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
     let object = ObjectConfig::load(&args.run.object)?;
     let rig = RigConfig::load(args.run.config.as_deref())?;
     prepare_out_dir(&args.out)?;
+    // Before any device moves: an address that cannot serve stops here.
+    let live = super::live::start(&args.run.live)?;
     let stop = super::stop_flag();
 
     let per_trial_ms = ((args.run.duration + SETUP_S) * 1e3) as u64;
@@ -68,6 +71,7 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
             realtime: args.run.realtime,
             overwrite: args.run.overwrite,
             path,
+            live: live.as_ref().map(LiveServer::tap),
         };
         let mut progress = |t: slidetrack_core::TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
@@ -103,5 +107,6 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
         }
     }
     bar.finish_and_clear();
+    super::live::finish(live);
     Ok(reports)
 }

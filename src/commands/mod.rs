@@ -3,6 +3,7 @@
 mod aruco;
 mod bench;
 mod bench_dekf;
+mod bench_live;
 mod calibrate;
 mod collect;
 mod decode;
@@ -16,7 +17,9 @@ mod export;
 mod import;
 mod info;
 mod label;
+mod live;
 mod objects;
+mod play;
 mod plot;
 mod record;
 pub mod replay;
@@ -63,6 +66,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Emulate(args) => emulate::run(&args),
         #[cfg(not(all(feature = "devices", target_os = "linux")))]
         Command::Emulate(_) => Err(without_devices("emulate")),
+        Command::Play(args) => play::run(&args),
     }
 }
 

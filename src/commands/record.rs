@@ -38,6 +38,7 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         realtime: false,
         overwrite: args.overwrite,
         path: args.out.clone(),
+        live: None,
     };
     let stop = super::stop_flag();
     let bar = match (quiet, args.duration) {

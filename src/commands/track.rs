@@ -17,6 +17,7 @@ use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_experiment::tracking::{LiveStatus, LiveTrackers};
 use slidetrack_experiment::trial::{ExtensionFactory, prepare_out_dir, record_trial_with};
 use slidetrack_experiment::vision_inhand::{InHandVision, InHandVisionConfig};
+use slidetrack_live::LiveServer;
 use slidetrack_sim::ObjectConfig;
 use slidetrack_vision::TrackerKind;
 
@@ -46,6 +47,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
             .join(format!("{}-s{}-t{:03}-track.mcap", object.name, args.run.seed, args.trial))
     });
     prepare_parent(&path)?;
+    let live = super::live::start(&args.run.live)?;
     let spec = TrialSpec {
         rig: &rig,
         object: &object,
@@ -56,6 +58,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         realtime: args.run.realtime,
         overwrite: args.run.overwrite,
         path,
+        live: live.as_ref().map(LiveServer::tap),
     };
     let setup = build_rig(kind, &spec)?;
     let rate = setup.tactile_info.rate_hz;
@@ -66,7 +69,9 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
             args.model.display()
         );
     }
-    track_on(args, model, setup, &spec, quiet)
+    let tracked = track_on(args, model, setup, &spec, quiet);
+    super::live::finish(live);
+    tracked
 }
 
 /// `track --rig replay`: the trackers on a replay of `--session`.
@@ -96,8 +101,12 @@ fn replay(args: &TrackArgs, model: &DekfModel, quiet: bool) -> Result<()> {
     if spec.path.exists() && !spec.overwrite {
         bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
     }
+    let live = super::live::start(&args.run.live)?;
+    spec.live = live.as_ref().map(LiveServer::tap);
     let setup = session.rig(ReplayOptions { camera: spec.camera, truth: true })?;
-    track_on(args, model.clone(), setup, &spec, quiet)
+    let tracked = track_on(args, model.clone(), setup, &spec, quiet);
+    super::live::finish(live);
+    tracked
 }
 
 /// Creates the directory of `path` when it has one.

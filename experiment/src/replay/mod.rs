@@ -145,6 +145,7 @@ impl ReplaySession {
             realtime: false,
             overwrite,
             path: out,
+            live: None,
         }
     }
 

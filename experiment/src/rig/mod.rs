@@ -16,6 +16,7 @@ use slidetrack_core::{
     ActuatorCommand, ActuatorSpec, Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, FingerMap,
     HandActuator, HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
 };
+use slidetrack_session::LiveTap;
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
 
@@ -54,6 +55,9 @@ pub struct TrialSpec<'a> {
     pub overwrite: bool,
     /// Session file to write.
     pub path: PathBuf,
+    /// Where the recorder also hands what it writes, for a live viewer
+    /// (`--live`); never waited for.
+    pub live: Option<LiveTap>,
 }
 
 /// A rig ready to run, with what the recorder needs to know about it.

@@ -3,6 +3,7 @@
 mod bad_input;
 mod errors;
 mod kill;
+mod live_tap;
 mod other_channels;
 mod python;
 mod queue;

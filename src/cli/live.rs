@@ -1,0 +1,40 @@
+//! Arguments of the live view: `--live` of the commands that record, and `play`.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use slidetrack_live::DEFAULT_LIVE_ADDR;
+
+/// Publishing a run live to Foxglove (`collect`, `track`).
+#[derive(Debug, Args, Clone, PartialEq)]
+pub struct LiveArgs {
+    /// Also publish every recorded channel live, same topics and schemas, to
+    /// Foxglove over its WebSocket protocol on ADDR (HOST:PORT; port 0 picks
+    /// a free one). The bound address is printed on stderr; the recording
+    /// never waits for a viewer.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = DEFAULT_LIVE_ADDR)]
+    pub live: Option<String>,
+    /// With --live: most camera images per second sent to viewers (0: every
+    /// one). Only images are thinned; the session keeps them all.
+    #[arg(long, value_name = "HZ", default_value_t = 15.0, requires = "live")]
+    pub live_image_hz: f64,
+}
+
+/// Arguments of `play`.
+#[derive(Debug, Args)]
+pub struct PlayArgs {
+    /// The session to play.
+    pub file: PathBuf,
+    /// Playback speed: 1 plays at the recorded timing, 10 ten times as fast.
+    #[arg(long, default_value_t = 1.0)]
+    pub rate: f64,
+    /// Start again from the beginning at the end, until Ctrl-C.
+    #[arg(long = "loop")]
+    pub looping: bool,
+    /// Where to serve Foxglove's WebSocket protocol (HOST:PORT; port 0 picks a free one).
+    #[arg(long, value_name = "ADDR", default_value = DEFAULT_LIVE_ADDR)]
+    pub live: String,
+    /// Start playing at once, instead of when the first viewer subscribes.
+    #[arg(long)]
+    pub no_wait: bool,
+}

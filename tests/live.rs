@@ -1,0 +1,190 @@
+//! The live view end to end: an independent Foxglove WebSocket client
+//! (tests/python/live_client.py) during `track --live` and `play`, a viewer
+//! that never reads during `collect --live`, and the errors of an address
+//! that cannot serve.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Stdio};
+use std::time::Duration;
+
+use common::{SHORT_PROTOCOL, fails, python, slidetrack, tempdir, trained};
+use slidetrack_core::TimeNs;
+use slidetrack_live::StalledViewer;
+use slidetrack_session::{MessageReader, ReadOptions};
+
+/// Starts `slidetrack ARGS` and returns it with the address its live view
+/// printed on stderr (`... on ws://ADDR ...`); the rest of stderr is drained.
+fn spawn_live(args: &[&str]) -> (Child, SocketAddr) {
+    let mut child =
+        slidetrack().args(args).stderr(Stdio::piped()).stdout(Stdio::null()).spawn().expect("spawn");
+    let mut lines = BufReader::new(child.stderr.take().expect("stderr")).lines();
+    let addr = loop {
+        let line = lines.next().expect("slidetrack printed its address").expect("stderr line");
+        if let Some(rest) = line.split("ws://").nth(1) {
+            break rest
+                .split_whitespace()
+                .next()
+                .expect("address")
+                .trim_end_matches(',')
+                .parse()
+                .expect("ADDR");
+        }
+    };
+    std::thread::Builder::new()
+        .name("slidetrack-stderr".into())
+        .spawn(move || lines.map_while(Result::ok).for_each(|l| eprintln!("slidetrack: {l}")))
+        .expect("stderr thread");
+    (child, addr)
+}
+
+/// Runs the Python client against `addr` until the server closes; checks
+/// against `session` when given. Returns its summary and its record.
+fn run_client(
+    addr: SocketAddr,
+    dir: &Path,
+    session: Option<&Path>,
+) -> (std::process::Output, serde_json::Value) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/live_client.py");
+    let out = dir.join("client.json");
+    let mut cmd = std::process::Command::new(python());
+    cmd.arg(script).arg(format!("ws://{addr}")).arg(&out).args(["--idle", "3"]);
+    if let Some(s) = session {
+        cmd.arg("--session").arg(s);
+    }
+    let output = cmd.output().expect("python runs");
+    let record = std::fs::read_to_string(&out)
+        .map_or(serde_json::Value::Null, |s| serde_json::from_str(&s).expect("client record is JSON"));
+    (output, record)
+}
+
+fn short_protocol(dir: &Path) -> PathBuf {
+    let config = dir.join("rig.toml");
+    std::fs::write(&config, SHORT_PROTOCOL).expect("write rig.toml");
+    config
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+#[test]
+fn a_viewer_during_track_gets_every_channel_and_the_recorded_messages() {
+    let dir = tempdir();
+    let (_, model) = trained(dir.path());
+    let (config, out) = (short_protocol(dir.path()), dir.path().join("live.mcap"));
+    let (mut child, addr) = spawn_live(&[
+        "-q",
+        "track",
+        "--rig",
+        "sim",
+        "--model",
+        s(&model),
+        "--duration",
+        "6",
+        "--config",
+        s(&config),
+        "--out",
+        s(&out),
+        "--live",
+        "127.0.0.1:0",
+        "--live-image-hz",
+        "0",
+    ]);
+    // The client connects while the trial runs, checks against the file once the server closes.
+    let (client, _) = run_client(addr, dir.path(), Some(&out));
+    assert!(child.wait().expect("track exits").success());
+    let stdout = String::from_utf8_lossy(&client.stdout);
+    assert!(client.status.success(), "client: {stdout}\n{}", String::from_utf8_lossy(&client.stderr));
+    let summary: serde_json::Value = serde_json::from_str(&stdout).expect("summary");
+    let received = &summary["received_per_topic"];
+    for topic in
+        ["/tactile/raw", "/estimate/dekf", "/camera/image", "/camera/calibration", "/protocol/events"]
+    {
+        assert!(received[topic].as_u64().unwrap_or(0) > 0, "{topic}: {summary}");
+    }
+    assert!(received["/tactile/raw"].as_u64().expect("raw") > 100, "{summary}");
+}
+
+/// Every message of a session, but the recorder's own statistics.
+fn messages(path: &Path) -> Vec<(String, TimeNs, Vec<u8>)> {
+    MessageReader::open(path, &[], ReadOptions::default())
+        .expect("session")
+        .map(|m| m.expect("message"))
+        .filter(|m| m.channel.topic != "/recorder/stats")
+        .map(|m| (m.channel.topic.clone(), m.log_time, m.data))
+        .collect()
+}
+
+#[test]
+fn a_viewer_that_never_reads_changes_nothing_in_the_session() {
+    let dir = tempdir();
+    let config = short_protocol(dir.path());
+    let (with, without) = (dir.path().join("with"), dir.path().join("without"));
+    // Two trials: the viewer subscribes during the first, the second runs entirely with it stalled.
+    let args =
+        ["-q", "collect", "--seed", "3", "--trials", "2", "--duration", "2", "--config", s(&config), "--out"];
+    let (mut child, addr) =
+        spawn_live(&[&args[..], &[s(&with), "--live", "127.0.0.1:0", "--live-image-hz", "0"]].concat());
+    let viewer = StalledViewer::subscribe_all(addr, 8, Duration::from_secs(20)).expect("viewer subscribes");
+    assert!(viewer.subscribed().len() >= 8, "{:?}", viewer.subscribed());
+    assert!(child.wait().expect("collect exits").success(), "collect --live with a stalled viewer");
+    drop(viewer);
+    common::ok(&[&args[..], &[s(&without)]].concat());
+    for name in ["box-s3-t000.mcap", "box-s3-t001.mcap"] {
+        let (a, b) = (messages(&with.join(name)), messages(&without.join(name)));
+        assert!(a.len() > 1000, "{} messages", a.len());
+        assert_eq!(a.len(), b.len(), "{name}");
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!((&x.0, x.1), (&y.0, y.1));
+            assert!(x.2 == y.2, "{name}: {} at {:?} differs with a stalled viewer", x.0, x.1);
+        }
+    }
+}
+
+#[test]
+fn play_delivers_a_session_at_its_recorded_timing() {
+    let dir = tempdir();
+    let config = short_protocol(dir.path());
+    let session = common::collect(dir.path(), "box", 5, 1.0, &["--no-camera", "--config", s(&config)]);
+    let (mut child, addr) = spawn_live(&["play", s(&session), "--live", "127.0.0.1:0", "--rate", "1"]);
+    let (client, record) = run_client(addr, dir.path(), Some(&session));
+    assert!(child.wait().expect("play exits").success());
+    let stdout = String::from_utf8_lossy(&client.stdout);
+    assert!(client.status.success(), "client: {stdout}\n{}", String::from_utf8_lossy(&client.stderr));
+    let msgs = record["messages"].as_array().expect("messages");
+    let total = messages(&session).len();
+    assert!(msgs.len() + 2 >= total, "received {} of {total} messages", msgs.len());
+    // Lateness of each message behind the recorded timing, from the earliest one (ms).
+    let offsets: Vec<f64> = msgs
+        .iter()
+        .map(|m| m["received_s"].as_f64().expect("t") * 1e3 - m["log_time"].as_f64().expect("log") / 1e6)
+        .collect();
+    let first = offsets.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut late: Vec<f64> = offsets.iter().map(|o| o - first).collect();
+    late.sort_by(f64::total_cmp);
+    let (median, p99) = (late[late.len() / 2], late[late.len() * 99 / 100]);
+    // A few ms per message; p99 leaves room for a loaded CI machine.
+    assert!(median < 3.0 && p99 < 25.0, "lateness median {median:.2} ms, p99 {p99:.2} ms");
+}
+
+#[test]
+fn an_address_that_cannot_serve_is_one_line_before_the_trial() {
+    let dir = tempdir();
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+    let port = taken.local_addr().expect("addr").port();
+    let out = dir.path().join("out");
+    let busy = format!("127.0.0.1:{port}");
+    for (addr, says) in
+        [(busy.as_str(), "in use"), ("192.0.2.1:8765", "cannot serve"), ("nowhere", "HOST:PORT")]
+    {
+        let e = fails(&["collect", "--duration", "1", "--out", s(&out), "--live", addr]);
+        assert!(e.contains(says), "{addr}: {e}");
+        assert!(!out.join("box-s1-t000.mcap").exists(), "{addr}: no trial ran");
+    }
+    let e = fails(&["play", s(&dir.path().join("missing.mcap")), "--live", "127.0.0.1:0"]);
+    assert!(e.contains("missing.mcap"), "{e}");
+}
