@@ -113,19 +113,7 @@ impl SimulatedTrials {
         seed: u64,
         duration_s: f64,
     ) -> Result<(Self, ChannelTactile)> {
-        let spec = |trial| TrialSpec {
-            rig,
-            object,
-            seed,
-            trial,
-            duration_s,
-            camera: false,
-            realtime: true,
-            overwrite: false,
-            path: PathBuf::new(),
-            live: None,
-        };
-        let info = build_sim_rig(&spec(0))?.tactile_info;
+        let info = build_sim_rig(&emulated_trial(rig, object, seed, 0, duration_s))?.tactile_info;
         let (tx, rx) = sync_channel(64);
         let stop = Arc::new(AtomicBool::new(false));
         let started = Arc::new(AtomicU64::new(0));
@@ -139,18 +127,7 @@ impl SimulatedTrials {
                         return;
                     }
                     count.fetch_add(1, Ordering::SeqCst);
-                    let spec = TrialSpec {
-                        rig: &rig,
-                        object: &object,
-                        seed,
-                        trial,
-                        duration_s,
-                        camera: false,
-                        realtime: true,
-                        overwrite: false,
-                        path: PathBuf::new(),
-                        live: None,
-                    };
+                    let spec = emulated_trial(&rig, &object, seed, trial, duration_s);
                     if let Err(e) = run_one(&spec, &tx, &stop_flag) {
                         tracing::warn!("simulated trial {trial}: {e:#}");
                         return;
@@ -173,6 +150,29 @@ impl Drop for SimulatedTrials {
         {
             tracing::warn!("the simulated trials' thread panicked");
         }
+    }
+}
+
+/// Trial `trial` of the simulated rig behind an emulator: on the wall
+/// clock, without camera, recording nothing.
+fn emulated_trial<'a>(
+    rig: &'a RigConfig,
+    object: &'a ObjectConfig,
+    seed: u64,
+    trial: u32,
+    duration_s: f64,
+) -> TrialSpec<'a> {
+    TrialSpec {
+        rig,
+        object,
+        seed,
+        trial,
+        duration_s,
+        camera: false,
+        realtime: true,
+        overwrite: false,
+        path: PathBuf::new(),
+        live: None,
     }
 }
 
