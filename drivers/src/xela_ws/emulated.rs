@@ -22,8 +22,8 @@ use crate::emulator::check_emulated_sensors;
 /// then stops the feed and the server.
 pub struct EmulatedXelaWsTactile {
     tactile: XelaWsTactile,
-    feed: Option<FeedThread>,
-    _server: XelaWsEmulator,
+    /// Dropped after the connection: the feed stops, then the server.
+    _emulator: XelaWsLiveEmulator,
 }
 
 struct FeedThread {
@@ -52,33 +52,10 @@ impl EmulatedXelaWsTactile {
         rate_hz: f64,
         clock: Arc<dyn Clock>,
     ) -> Result<EmulatedXelaWsTactile, DeviceError> {
-        let grids: Vec<_> = cfg.sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect();
-        check_emulated_sensors(&source.info(), &grids, EMULATED_URL)?;
-        let fail = |e: std::io::Error| {
-            DeviceError::new(ErrorKind::Other, EMULATED_URL, format!("cannot start the emulator: {e}"))
-        };
-        // A few scans of slack: the feed blocks (and the simulated rig
-        // waits) rather than run ahead of the server.
-        let (tx, rx) = bounded(8);
-        let server = XelaWsEmulator::start_live(Some(encode_welcome(Some("slidetrack-emulator"))), rx)
-            .map_err(fail)?;
         // Connected before the first scan is made, so that none is lost.
-        let tactile = XelaWsTactile::connect(&server.url(), cfg, rate_hz, clock)?;
-        let stop = Arc::new(AtomicBool::new(false));
-        let feed = Feed::new(source, cfg, tx, Arc::clone(&stop));
-        let thread = std::thread::Builder::new()
-            .name("xela-ws-feed".into())
-            .spawn(move || feed.run())
-            .map_err(fail)?;
-        let feed = FeedThread { stop, thread: Some(thread) };
-        Ok(EmulatedXelaWsTactile { tactile, feed: Some(feed), _server: server })
-    }
-}
-
-impl Drop for EmulatedXelaWsTactile {
-    fn drop(&mut self) {
-        // The feed stops before the server so that it never blocks on a full channel.
-        self.feed.take();
+        let (emulator, tactile) =
+            XelaWsLiveEmulator::serve(source, cfg, |url| XelaWsTactile::connect(url, cfg, rate_hz, clock))?;
+        Ok(EmulatedXelaWsTactile { _emulator: emulator, tactile })
     }
 }
 
@@ -113,21 +90,34 @@ impl XelaWsLiveEmulator {
         source: Box<dyn TactileSource>,
         cfg: &XelaWsTactileConfig,
     ) -> Result<XelaWsLiveEmulator, DeviceError> {
+        Ok(XelaWsLiveEmulator::serve(source, cfg, |_| Ok(()))?.0)
+    }
+
+    /// Starts the server, calls `before_feed` with its URL (a client that
+    /// must see every scan connects there), then starts feeding it.
+    fn serve<T>(
+        source: Box<dyn TactileSource>,
+        cfg: &XelaWsTactileConfig,
+        before_feed: impl FnOnce(&str) -> Result<T, DeviceError>,
+    ) -> Result<(XelaWsLiveEmulator, T), DeviceError> {
         let grids: Vec<_> = cfg.sensors.iter().map(|s| (s.name.as_str(), s.rows, s.cols)).collect();
         check_emulated_sensors(&source.info(), &grids, EMULATED_URL)?;
         let fail = |e: std::io::Error| {
             DeviceError::new(ErrorKind::Other, EMULATED_URL, format!("cannot start the emulator: {e}"))
         };
+        // A few scans of slack: the feed blocks (and the simulated rig
+        // waits) rather than run ahead of the server.
         let (tx, rx) = bounded(8);
         let server = XelaWsEmulator::start_live(Some(encode_welcome(Some("slidetrack-emulator"))), rx)
             .map_err(fail)?;
+        let before = before_feed(&server.url())?;
         let stop = Arc::new(AtomicBool::new(false));
         let feed = Feed::new(source, cfg, tx, Arc::clone(&stop));
         let thread = std::thread::Builder::new()
             .name("xela-ws-feed".into())
             .spawn(move || feed.run())
             .map_err(fail)?;
-        Ok(XelaWsLiveEmulator { feed: Some(FeedThread { stop, thread: Some(thread) }), server })
+        Ok((XelaWsLiveEmulator { feed: Some(FeedThread { stop, thread: Some(thread) }), server }, before))
     }
 
     /// The URL clients connect to (`ws://127.0.0.1:PORT`).
