@@ -41,3 +41,14 @@ pub enum LiveError {
     #[error("viewer probe: {0}")]
     Probe(String),
 }
+
+impl LiveError {
+    /// The error of starting a server on `addr`: the address refused, or
+    /// anything else the SDK reports.
+    pub fn starting(addr: SocketAddr, e: foxglove::FoxgloveError) -> LiveError {
+        match e {
+            foxglove::FoxgloveError::Bind(source) => LiveError::Bind { addr, source },
+            other => LiveError::Server(other),
+        }
+    }
+}

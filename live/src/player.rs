@@ -330,10 +330,7 @@ pub fn play(
         .listener(Arc::clone(&controls) as Arc<dyn ServerListener>)
         .bind(requested.ip().to_string(), requested.port())
         .start_blocking()
-        .map_err(|e| match e {
-            foxglove::FoxgloveError::Bind(source) => LiveError::Bind { addr: requested, source },
-            other => LiveError::Server(other),
-        })?;
+        .map_err(|e| LiveError::starting(requested, e))?;
     listening(SocketAddr::new(requested.ip(), server.port()));
     let result = run(&server, &player, &controls, options, stop);
     stop_server(server);

@@ -139,10 +139,7 @@ impl LiveServer {
             .message_backlog_size(options.viewer_backlog.max(1))
             .bind(requested.ip().to_string(), requested.port())
             .start_blocking()
-            .map_err(|e| match e {
-                foxglove::FoxgloveError::Bind(source) => LiveError::Bind { addr: requested, source },
-                other => LiveError::Server(other),
-            })?;
+            .map_err(|e| LiveError::starting(requested, e))?;
         let addr = SocketAddr::new(requested.ip(), server.port());
         let server = Arc::new(server);
         let stop = Arc::new(AtomicBool::new(false));
