@@ -9,7 +9,7 @@ use slidetrack_estimators::dekf::{
     DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence, Stage, TrainConfig,
     train_with_selection,
 };
-use slidetrack_estimators::derivative::DerivativeFilterConfig;
+use slidetrack_estimators::derivative::{DEFAULT_OUTLIER_GATE_SIGMA, DerivativeFilterConfig};
 
 use crate::dataset::{ChannelSet, SessionData, TruthSource};
 use crate::dekf_eval::score_session;
@@ -54,6 +54,10 @@ pub struct TrainSpec {
     /// ([`crate::dekf_run::rate_tolerance`]); 0.05 unless a dataset's rates
     /// vary more (imported recordings on a mean-rate clock).
     pub rate_tolerance: f64,
+    /// Gate of the derivative filter against isolated tactile spikes
+    /// (standard deviations; 0: off), stored in the model so that it runs
+    /// as it was trained.
+    pub outlier_gate_sigma: f64,
 }
 
 impl Default for TrainSpec {
@@ -73,6 +77,7 @@ impl Default for TrainSpec {
             threads: 0,
             truth: TruthSource::GroundTruth,
             rate_tolerance: DEFAULT_RATE_TOLERANCE,
+            outlier_gate_sigma: DEFAULT_OUTLIER_GATE_SIGMA,
         }
     }
 }
@@ -140,7 +145,7 @@ fn new_model(
     let tactile_rate = common_tactile_rate(sessions, spec.rate_tolerance)?;
     let decimation = ((tactile_rate / spec.rate_hz).round() as usize).max(1);
     let channels = spec.channels.clone();
-    let filter = DerivativeFilterConfig::default();
+    let filter = DerivativeFilterConfig { outlier_gate_sigma: spec.outlier_gate_sigma, ..Default::default() };
     let prepared: Vec<Inputs> = sessions
         .iter()
         .map(|s| inputs(s, &channels, spec.measurement, filter, decimation))

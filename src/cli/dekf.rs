@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use slidetrack_estimators::dekf::Measurement;
+use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
 use slidetrack_experiment::dataset::TruthSource;
 use slidetrack_experiment::dekf_train::DEFAULT_POSITION_SHIFT_CM;
 
@@ -97,6 +98,12 @@ pub struct TrainArgs {
     /// than the default.
     #[arg(long, default_value_t = 0.05)]
     pub rate_tolerance: f64,
+    /// Leave out tactile samples further than this many standard deviations
+    /// from the derivative filter's prediction (isolated spikes), at most two
+    /// scans in a row; 0 takes every sample. Stored in the model: the online
+    /// filter runs with the same gate.
+    #[arg(long, value_name = "SIGMA", default_value_t = DEFAULT_OUTLIER_GATE_SIGMA)]
+    pub outlier_gate: f64,
 }
 
 /// Arguments of `replay`.

@@ -25,6 +25,7 @@ pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
         threads: args.threads,
         truth: args.truth.into(),
         rate_tolerance: args.rate_tolerance,
+        outlier_gate_sigma: args.outlier_gate,
     })
 }
 
