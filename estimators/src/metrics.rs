@@ -208,7 +208,11 @@ pub fn frame_errors(f: &FrameEvaluation, model: &ObjectPoints) -> FrameErrors {
         adi_m: adi_m(&f.estimate, &f.truth, model),
         position_m: position_error_m(&f.estimate, &f.truth),
         rotation_deg: rotation_error_deg(&f.estimate, &f.truth),
-        rotation_modulo_symmetry_deg: rotation_error_modulo_symmetry_deg(&f.estimate, &f.truth, model.symmetry()),
+        rotation_modulo_symmetry_deg: rotation_error_modulo_symmetry_deg(
+            &f.estimate,
+            &f.truth,
+            model.symmetry(),
+        ),
         linear_velocity_mps: f.linear_velocity_mps.map(|(e, t)| vector_error(&e, &t)),
         angular_velocity_radps: f.angular_velocity_radps.map(|(e, t)| vector_error(&e, &t)),
         flow_linear_velocity_mps: f.flow_velocity.map(|(e, t)| (e - t).fixed_rows::<3>(0).norm()),
@@ -343,7 +347,8 @@ mod tests {
         assert_relative_eq!(m.flow_angular_velocity_rmse_degps.unwrap(), 1f64.to_degrees(), epsilon = 1e-9);
         // The turn is about x: a model symmetric about x discounts all of it.
         assert_relative_eq!(m.rotation_rmse_modulo_symmetry_deg, 10.0, epsilon = 1e-9);
-        let can = cube().with_symmetry(crate::orientation::Symmetry::Axis { axis_in_object: Vector3::x_axis() });
+        let can =
+            cube().with_symmetry(crate::orientation::Symmetry::Axis { axis_in_object: Vector3::x_axis() });
         assert!(evaluate(&frames, &can).rotation_rmse_modulo_symmetry_deg < 1e-6);
     }
 }

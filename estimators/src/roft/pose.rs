@@ -251,15 +251,20 @@ mod tests {
         .unwrap();
         let r = [1e-3, 1e-3, 1.0, 1.0];
         let R = measurement_noise(MeasuredParts::Pose, &r);
-        let posterior = correct(&prior, &z, &R, |x, nu| measure(MeasuredParts::Pose, x, nu), &UtParams::default())
-            .unwrap()
-            .posterior;
+        let posterior =
+            correct(&prior, &z, &R, |x, nu| measure(MeasuredParts::Pose, x, nu), &UtParams::default())
+                .unwrap()
+                .posterior;
         let q = pose_velocity(&posterior.mean).camera_from_object.rotation;
         let moved_in_camera = (q * q0.inverse()).scaled_axis();
         let expected = Vector3::new(turn.x * var_x / (var_x + r[1]), turn.y * var_y / (var_y + r[1]), 0.0);
         assert_relative_eq!(moved_in_camera, expected, epsilon = 2e-5);
         for (k, var) in [var_x, var_y, var_z].into_iter().enumerate() {
-            assert_relative_eq!(posterior.cov[(6 + k, 6 + k)], var * r[1] / (var + r[1]), max_relative = 1e-3);
+            assert_relative_eq!(
+                posterior.cov[(6 + k, 6 + k)],
+                var * r[1] / (var + r[1]),
+                max_relative = 1e-3
+            );
         }
     }
 
@@ -320,7 +325,10 @@ mod tests {
         for r in 0..3 {
             for c in 0..3 {
                 let scale = (ukf_cov[(r, r)] * ukf_cov[(c, c)]).sqrt();
-                assert!((mc_cov[(r, c)] - ukf_cov[(r, c)]).abs() < 0.08 * scale, "({r}, {c}): {mc_cov} vs {ukf_cov}");
+                assert!(
+                    (mc_cov[(r, c)] - ukf_cov[(r, c)]).abs() < 0.08 * scale,
+                    "({r}, {c}): {mc_cov} vs {ukf_cov}"
+                );
             }
         }
     }
