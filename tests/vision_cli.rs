@@ -11,10 +11,12 @@ use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
 use slidetrack_session::{PoseInFrame, ReadOptions, SessionInfo, read_json};
 use slidetrack_vision::input::read_meta;
 
-/// Bounds of ROFT on the simulated session, about twice what it reaches.
-const POSITION_RMSE_CM: f64 = 100.0;
-const ROTATION_RMSE_DEG: f64 = 1000.0;
-const ADD_AUC_PERCENT: f64 = 0.0;
+/// Bounds of ROFT on the simulated session: it reaches 8.8 cm, 29 degrees
+/// and an ADD-AUC of 38.7% (1.3 s after its first pose, the imitated
+/// network's poses 1.5 cm and 6 degrees off and its masks imperfect).
+const POSITION_RMSE_CM: f64 = 15.0;
+const ROTATION_RMSE_DEG: f64 = 45.0;
+const ADD_AUC_PERCENT: f64 = 20.0;
 
 fn rgbd(rel: &str) -> String {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/testdata/rgbd").join(rel);
