@@ -122,7 +122,7 @@ fn ping_pong_frames(dir: &Path, count: usize) -> Vec<usize> {
                 source.join(format!("{:06}-{suffix}", index + 1)),
                 dir.join(format!("{:06}-{suffix}", k + 1)),
             )
-            .unwrap();
+            .expect("a link in the temporary directory");
         }
     }
     order

@@ -38,7 +38,7 @@ impl PingPong {
     fn new(mut dir: YcbDirectory, count: usize) -> PingPong {
         let intrinsics = dir.intrinsics().clone();
         let mut frames = Vec::new();
-        while let Some(s) = dir.next_frame().unwrap() {
+        while let Some(s) = dir.next_frame().expect("the YCB-Video test frames read") {
             frames.push(s);
         }
         PingPong { frames, intrinsics, count, next: 0 }

@@ -42,41 +42,7 @@ pub fn register_depth_to_color(
     color_intrinsics: &CameraIntrinsics,
     color_from_depth: &Isometry3<f64>,
 ) -> Result<DepthImage, VisionError> {
-    if (depth.width, depth.height) != (depth_intrinsics.width, depth_intrinsics.height)
-        || depth.data.len() != depth.width as usize * depth.height as usize
-    {
-        return Err(VisionError::SizeMismatch {
-            what: "depth image",
-            width: depth.width,
-            height: depth.height,
-            expected_width: depth_intrinsics.width,
-            expected_height: depth_intrinsics.height,
-        });
-    }
-    for (what, k) in [("depth intrinsics", depth_intrinsics), ("colour intrinsics", color_intrinsics)] {
-        let usable = [k.fx, k.fy].iter().all(|f| f.is_finite() && *f > 0.0)
-            && k.cx.is_finite()
-            && k.cy.is_finite()
-            && k.width > 0
-            && k.height > 0;
-        if !usable {
-            return Err(VisionError::BadImage {
-                what,
-                detail: format!(
-                    "fx {}, fy {}, cx {}, cy {} px are not positive and finite",
-                    k.fx, k.fy, k.cx, k.cy
-                ),
-            });
-        }
-    }
-    if !(depth.scale_m.is_finite() && depth.scale_m > 0.0)
-        || !color_from_depth.to_homogeneous().iter().all(|v| v.is_finite())
-    {
-        return Err(VisionError::BadImage {
-            what: "depth registration",
-            detail: format!("depth scale {} m or the extrinsics are not finite", depth.scale_m),
-        });
-    }
+    check_inputs(depth, depth_intrinsics, color_intrinsics, color_from_depth)?;
     let (width, height) = (color_intrinsics.width, color_intrinsics.height);
     let mut out =
         DepthImage { width, height, data: vec![0; width as usize * height as usize], scale_m: depth.scale_m };
@@ -139,6 +105,50 @@ pub fn register_depth_to_color(
         }
     }
     Ok(out)
+}
+
+/// The sizes, intrinsics, depth scale and extrinsics are usable.
+fn check_inputs(
+    depth: &DepthImage,
+    depth_intrinsics: &CameraIntrinsics,
+    color_intrinsics: &CameraIntrinsics,
+    color_from_depth: &Isometry3<f64>,
+) -> Result<(), VisionError> {
+    if (depth.width, depth.height) != (depth_intrinsics.width, depth_intrinsics.height)
+        || depth.data.len() != depth.width as usize * depth.height as usize
+    {
+        return Err(VisionError::SizeMismatch {
+            what: "depth image",
+            width: depth.width,
+            height: depth.height,
+            expected_width: depth_intrinsics.width,
+            expected_height: depth_intrinsics.height,
+        });
+    }
+    for (what, k) in [("depth intrinsics", depth_intrinsics), ("colour intrinsics", color_intrinsics)] {
+        let usable = [k.fx, k.fy].iter().all(|f| f.is_finite() && *f > 0.0)
+            && k.cx.is_finite()
+            && k.cy.is_finite()
+            && k.width > 0
+            && k.height > 0;
+        if !usable {
+            return Err(VisionError::BadImage {
+                what,
+                detail: format!(
+                    "fx {}, fy {}, cx {}, cy {} px are not positive and finite",
+                    k.fx, k.fy, k.cx, k.cy
+                ),
+            });
+        }
+    }
+    let finite_extrinsics = color_from_depth.to_homogeneous().iter().all(|v| v.is_finite());
+    if !(depth.scale_m.is_finite() && depth.scale_m > 0.0 && finite_extrinsics) {
+        return Err(VisionError::BadImage {
+            what: "depth registration",
+            detail: format!("depth scale {} m or the extrinsics are not finite", depth.scale_m),
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -98,11 +98,14 @@ impl Default for MaskErrors {
     }
 }
 
+/// A result on its way: its mask (`None` when the object was missed) and pose.
+type InFlight = (Option<Delayed<Mask>>, Delayed<Isometry3<f64>>);
+
 /// The imitated network.
 pub struct SlowNetwork {
     config: SlowNetworkConfig,
     busy_until: Option<TimeNs>,
-    in_flight: Option<(Option<Delayed<Mask>>, Delayed<Isometry3<f64>>)>,
+    in_flight: Option<InFlight>,
     rng: u64,
     delivered_outliers: usize,
 }
