@@ -3,6 +3,7 @@
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
+use slidetrack_estimators::dekf::Architecture;
 use slidetrack_experiment::dataset::{ChannelSet, SessionData, expand, load};
 use slidetrack_experiment::dekf_run::save_model;
 use slidetrack_experiment::dekf_train::{TrainSpec, Trained, fit_sessions, parse_schedule};
@@ -25,6 +26,11 @@ pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
         threads: args.threads,
         truth: args.truth.into(),
         rate_tolerance: args.rate_tolerance,
+        architecture: Architecture {
+            width: args.width,
+            residual_blocks: args.blocks,
+            activation: args.activation.into(),
+        },
     })
 }
 
@@ -74,6 +80,7 @@ pub fn run(args: &TrainArgs, quiet: bool) -> Result<()> {
         let out = json!({
             "model": args.out,
             "channels": trained.model.meta.channels,
+            "architecture": trained.model.architecture(),
             "measurement": trained.model.meta.measurement.name(),
             "dt_s": trained.model.meta.dt_s,
             "seconds": trained.seconds,

@@ -276,10 +276,17 @@ mod tests {
             let mut meta = header_metadata(&to_bytes(&m).unwrap());
             meta.insert(ARCHITECTURE_KEY.into(), json.into());
             let e = from_bytes(&with_metadata(&to_bytes(&m).unwrap(), meta)).unwrap_err();
-            assert!(matches!(e, ModelFileError::Architecture { .. }) && e.to_string().contains(needle), "{e}");
+            assert!(
+                matches!(e, ModelFileError::Architecture { .. }) && e.to_string().contains(needle),
+                "{e}"
+            );
         }
         // Tensors of another architecture than the metadata says.
-        let tanh = model_with(&Architecture { activation: crate::dekf::params::Activation::Tanh, residual_blocks: 2, ..Architecture::default() });
+        let tanh = model_with(&Architecture {
+            activation: crate::dekf::params::Activation::Tanh,
+            residual_blocks: 2,
+            ..Architecture::default()
+        });
         let mut meta = header_metadata(&to_bytes(&tanh).unwrap());
         meta.insert(ARCHITECTURE_KEY.into(), serde_json::to_string(&Architecture::default()).unwrap());
         let e = from_bytes(&with_metadata(&to_bytes(&tanh).unwrap(), meta)).unwrap_err();

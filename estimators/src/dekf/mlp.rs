@@ -500,7 +500,8 @@ pub(crate) mod tests {
                                 let (mut up, mut down) = (p.clone(), p.clone());
                                 up[idx] += eps;
                                 down[idx] -= eps;
-                                let ((lu, tu), (ld, td)) = (weighted(&up, net, &x, &w), weighted(&down, net, &x, &w));
+                                let ((lu, tu), (ld, td)) =
+                                    (weighted(&up, net, &x, &w), weighted(&down, net, &x, &w));
                                 if !same_branches(&tu, &td) {
                                     skipped += 1;
                                     continue;

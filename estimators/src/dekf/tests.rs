@@ -91,7 +91,9 @@ fn gradients_match_finite_differences_of_the_loss() {
                     let mut eps = if arch.activation.has_curvature() { 3e-3 } else { 3e-4 };
                     let mut noise = 2e-3;
                     let (mut a, mut b) = (fd(eps), fd(eps / 2.0));
-                    let kink = |a: f64, b: f64, noise: f64| (a - b).abs() > 0.004 * (a.abs() + b.abs()) + noise / 2.0;
+                    let kink = |a: f64, b: f64, noise: f64| {
+                        (a - b).abs() > 0.004 * (a.abs() + b.abs()) + noise / 2.0
+                    };
                     if kink(a, b, noise) {
                         (eps, noise) = (eps / 4.0, noise * 4.0);
                         (a, b) = (fd(eps), fd(eps / 2.0));
@@ -229,8 +231,13 @@ fn a_dekf_whose_networks_output_zero_is_the_constant_velocity_ekf() {
                 let m = &seq.measurements[2 * (t + 1)..2 * (t + 2)];
                 tracker.step(&[f64::from(m[0]), f64::from(m[1])]);
                 let (mean, cov) = tracker.state();
-                for (got, want) in mean.iter().chain(cov.iter().flatten()).zip(x.iter().chain(p.iter().flatten())) {
-                    assert!((got - want).abs() < 1e-5 * (1.0 + want.abs()), "{arch:?} step {t}: {got} vs {want}");
+                for (got, want) in
+                    mean.iter().chain(cov.iter().flatten()).zip(x.iter().chain(p.iter().flatten()))
+                {
+                    assert!(
+                        (got - want).abs() < 1e-5 * (1.0 + want.abs()),
+                        "{arch:?} step {t}: {got} vs {want}"
+                    );
                 }
             }
             // Training path, from another state: the closed form is its truth.
