@@ -6,8 +6,8 @@ use anyhow::{Context, Result, bail};
 use rand::SeedableRng;
 use serde_json::json;
 use slidetrack_estimators::dekf::{
-    DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence, Stage, TrainConfig,
-    train_with_selection,
+    Architecture, DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence, Stage,
+    TrainConfig, train_with_selection,
 };
 use slidetrack_estimators::derivative::{DEFAULT_OUTLIER_GATE_SIGMA, DerivativeFilterConfig};
 
@@ -58,6 +58,9 @@ pub struct TrainSpec {
     /// (standard deviations; 0: off), stored in the model so that it runs
     /// as it was trained.
     pub outlier_gate_sigma: f64,
+    /// Width, residual blocks and activation of the networks (default: the
+    /// thesis's 64, 3, ReLU).
+    pub architecture: Architecture,
 }
 
 impl Default for TrainSpec {
@@ -78,6 +81,7 @@ impl Default for TrainSpec {
             truth: TruthSource::GroundTruth,
             rate_tolerance: DEFAULT_RATE_TOLERANCE,
             outlier_gate_sigma: DEFAULT_OUTLIER_GATE_SIGMA,
+            architecture: Architecture::default(),
         }
     }
 }
@@ -174,7 +178,11 @@ fn new_model(
     {
         training.insert(RATE_TOLERANCE_KEY.into(), json!(spec.rate_tolerance));
     }
-    let mut model = DekfModel::new(meta, &mut rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed));
+    let mut model = DekfModel::with_architecture(
+        meta,
+        &spec.architecture,
+        &mut rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed),
+    );
     let (mean, std) = normalisation(&prepared.iter().collect::<Vec<_>>(), channels.len());
     model.set_input_normalisation(&mean, &std);
     let data = prepared.iter().map(|p| sequence(&model, p)).collect::<Result<Vec<_>>>()?;
@@ -193,6 +201,9 @@ pub fn fit_sessions(
     }
     if spec.schedule.is_empty() {
         bail!("the training schedule has no stages");
+    }
+    if let Some(problem) = spec.architecture.problem() {
+        bail!("invalid network architecture: {problem}");
     }
     if !(spec.rate_tolerance.is_finite() && spec.rate_tolerance >= 0.0) {
         bail!("the rate tolerance must be a non-negative fraction, got {}", spec.rate_tolerance);
