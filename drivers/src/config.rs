@@ -144,17 +144,23 @@ pub enum CameraDevice {
     V4l2(Box<V4l2CameraConfig>),
 }
 
-/// Pixel formats slidetrack streams from V4L2 cameras.
+/// Pixel formats slidetrack streams from V4L2 cameras (the names of the
+/// kernel's pixel format documentation; lower case is accepted too).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum V4l2PixelFormat {
     /// Motion JPEG: recorded as it comes, decoded for detection.
-    #[serde(rename = "MJPG")]
+    #[serde(rename = "MJPG", alias = "mjpg")]
     Mjpg,
     /// YUV 4:2:2: the luma drives detection, frames are JPEG-encoded for the session.
-    #[serde(rename = "YUYV")]
+    #[serde(rename = "YUYV", alias = "yuyv")]
     Yuyv,
-    /// 16-bit depth of RGB-D cameras: recorded as 16-bit PNG, no detection.
-    #[serde(rename = "Z16")]
+    /// 8-bit gray (`V4L2_PIX_FMT_GREY`, also called Y8): the pixels drive
+    /// detection, frames are JPEG-encoded for the session.
+    #[serde(rename = "GREY", alias = "grey", alias = "Y8", alias = "y8")]
+    Grey,
+    /// 16-bit depth of RGB-D cameras (`V4L2_PIX_FMT_Z16`, little-endian):
+    /// recorded as 16-bit PNG, no detection.
+    #[serde(rename = "Z16", alias = "z16")]
     Z16,
 }
 
@@ -164,7 +170,17 @@ impl V4l2PixelFormat {
         match self {
             V4l2PixelFormat::Mjpg => *b"MJPG",
             V4l2PixelFormat::Yuyv => *b"YUYV",
+            V4l2PixelFormat::Grey => *b"GREY",
             V4l2PixelFormat::Z16 => *b"Z16 ",
+        }
+    }
+
+    /// Bytes per pixel of the uncompressed formats; `None` for MJPG.
+    pub fn bytes_per_pixel(self) -> Option<u32> {
+        match self {
+            V4l2PixelFormat::Mjpg => None,
+            V4l2PixelFormat::Grey => Some(1),
+            V4l2PixelFormat::Yuyv | V4l2PixelFormat::Z16 => Some(2),
         }
     }
 }
@@ -187,6 +203,10 @@ pub struct V4l2CameraConfig {
     pub buffers: u32,
     /// Longest wait for a frame before the camera counts as gone (ms).
     pub timeout_ms: u64,
+    /// Longest wait for the first frame after streaming starts (ms): cameras
+    /// take longer to deliver their first frame (auto-exposure, a depth
+    /// camera's laser) than between frames.
+    pub startup_timeout_ms: u64,
     /// JPEG quality for formats recorded re-encoded (YUYV), 1-100.
     pub jpeg_quality: u8,
     /// Camera calibration file: ROS `camera_info` or OpenCV YAML, or TOML
@@ -208,6 +228,7 @@ impl Default for V4l2CameraConfig {
             fps: 30.0,
             buffers: 4,
             timeout_ms: 1000,
+            startup_timeout_ms: 5000,
             jpeg_quality: 90,
             calibration: None,
             intrinsics: None,

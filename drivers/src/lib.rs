@@ -37,6 +37,7 @@ pub mod emulator;
 pub mod hand_can;
 pub mod mjpeg;
 pub mod offline;
+pub mod rgbd_config;
 pub mod robotiq;
 pub mod scan;
 pub mod sensors;
@@ -50,6 +51,7 @@ pub mod slcan_bus;
 pub mod slcan_emulator;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod v4l2;
+pub mod v4l2_decode;
 pub mod xela_ws;
 
 #[cfg(all(feature = "devices", target_os = "linux"))]

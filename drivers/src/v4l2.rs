@@ -1,7 +1,10 @@
 //! Cameras over Video4Linux2: memory-mapped streaming on a capture thread,
 //! driver timestamps mapped to the session clock, Motion-JPEG recorded as it
 //! comes (with the standard Huffman tables inserted when the camera omits
-//! them) and decoded only for detection.
+//! them) and decoded only for detection; YUYV, GREY and Z16 rows unpadded
+//! to the driver's stride; buffers the driver flags as erroneous dropped
+//! and counted; a start-up timeout for the first frame apart from the
+//! per-frame timeout.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -10,9 +13,7 @@ use std::time::Duration;
 
 use crossbeam_channel::{Receiver, Sender, TryRecvError, TrySendError};
 use nix::time::{ClockId, clock_gettime};
-use slidetrack_core::{
-    Camera, CameraIntrinsics, Clock, DeviceError, EncodedImage, ErrorKind, Frame, Image, TimeNs,
-};
+use slidetrack_core::{Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, Frame, TimeNs};
 use v4l::buffer::{Flags as BufferFlags, Metadata, Type};
 use v4l::capability::Flags as CapFlags;
 use v4l::io::mmap::Stream;
@@ -22,7 +23,8 @@ use v4l::video::capture::Parameters;
 use v4l::{Device, Format, FourCC};
 
 use crate::config::{V4l2CameraConfig, V4l2PixelFormat};
-use crate::{io_error_kind, mjpeg};
+use crate::io_error_kind;
+pub use crate::v4l2_decode::{CaptureCounters, FrameLayout, frame_content};
 
 /// Frames the capture thread may hold ahead of the trial loop; beyond this
 /// the newest are dropped (the gap shows in `sequence`).
@@ -36,6 +38,7 @@ pub struct V4l2Camera {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     failed: Option<DeviceError>,
+    counters: Arc<CaptureCounters>,
 }
 
 fn device_error(device: &str, what: &str, e: &std::io::Error) -> DeviceError {
@@ -90,16 +93,22 @@ impl V4l2Camera {
         }
         let (tx, frames) = crossbeam_channel::bounded(QUEUE);
         let stop = Arc::new(AtomicBool::new(false));
+        let counters = Arc::new(CaptureCounters::default());
         let capture = CaptureThread {
             device: name.to_string(),
-            format: cfg.pixel_format,
-            width: cfg.width,
-            height: cfg.height,
+            layout: FrameLayout {
+                format: cfg.pixel_format,
+                width: cfg.width,
+                height: cfg.height,
+                bytes_per_line: got.stride,
+            },
             buffers: cfg.buffers,
             timeout: Duration::from_millis(cfg.timeout_ms),
+            startup_timeout: Duration::from_millis(cfg.startup_timeout_ms),
             jpeg_quality: cfg.jpeg_quality,
             clock,
             stop: Arc::clone(&stop),
+            counters: Arc::clone(&counters),
         };
         let thread = std::thread::Builder::new()
             .name("v4l2-capture".into())
@@ -112,7 +121,14 @@ impl V4l2Camera {
             stop,
             thread: Some(thread),
             failed: None,
+            counters,
         })
+    }
+
+    /// The capture's counts (frames delivered, flagged erroneous, dropped
+    /// while the reader was behind), live while the camera streams.
+    pub fn counters(&self) -> Arc<CaptureCounters> {
+        Arc::clone(&self.counters)
     }
 }
 
@@ -122,11 +138,14 @@ impl Camera for V4l2Camera {
     ///   MJPG frames carry the bytes as the camera sent them (Huffman
     ///   tables added when missing) and, when they decode, gray pixels for
     ///   detection; YUYV frames carry the luma and a JPEG of the colour
-    ///   image; Z16 frames a 16-bit PNG and no pixels.
+    ///   image; GREY frames their pixels and a JPEG of them; Z16 frames a
+    ///   16-bit PNG and no pixels. Frames the driver flags as erroneous are
+    ///   dropped (and counted, see [`V4l2Camera::counters`]).
     /// - Frame times are the driver's timestamps on the session clock (the
     ///   arrival time when the driver's clock is not monotonic).
-    /// - `Disconnected` once the device is gone, `Timeout` when it stopped
-    ///   delivering frames for `timeout_ms`; every later call fails too.
+    /// - `Disconnected` once the device is gone, `Timeout` when no first
+    ///   frame came within `startup_timeout_ms` or it stopped delivering
+    ///   frames for `timeout_ms`; every later call fails too.
     fn poll(&mut self) -> Result<Option<Frame>, DeviceError> {
         if let Some(e) = &self.failed {
             return Err(e.clone());
@@ -166,14 +185,14 @@ impl Drop for V4l2Camera {
 /// What the capture thread needs.
 struct CaptureThread {
     device: String,
-    format: V4l2PixelFormat,
-    width: u32,
-    height: u32,
+    layout: FrameLayout,
     buffers: u32,
     timeout: Duration,
+    startup_timeout: Duration,
     jpeg_quality: u8,
     clock: Arc<dyn Clock>,
     stop: Arc<AtomicBool>,
+    counters: Arc<CaptureCounters>,
 }
 
 /// The mapping from the driver's buffer timestamps (`CLOCK_MONOTONIC`) to
@@ -213,38 +232,6 @@ impl DriverClockMap {
     }
 }
 
-/// What a captured buffer of `format` (`width` x `height` px) becomes:
-/// gray pixels for detection and the bytes to record.
-///
-/// - MJPG: the bytes as the camera sent them (only the standard Huffman
-///   tables inserted when the frame has none; never re-encoded), and their
-///   luma when they decode (`None` for a corrupt frame, still recorded).
-/// - YUYV: the luma, and the colour image JPEG-encoded at `jpeg_quality`.
-/// - Z16: no pixels, the depth as 16-bit PNG.
-///
-/// A buffer too short for its size gives `None` for what it cannot fill.
-pub fn frame_content(
-    format: V4l2PixelFormat,
-    width: u32,
-    height: u32,
-    jpeg_quality: u8,
-    bytes: &[u8],
-) -> (Option<Image>, Option<EncodedImage>) {
-    match format {
-        V4l2PixelFormat::Mjpg => {
-            let jpeg = mjpeg::with_huffman_tables(bytes).into_owned();
-            let pixels = mjpeg::decode_gray(&jpeg);
-            (pixels, Some(EncodedImage { format: "jpeg".into(), bytes: jpeg }))
-        }
-        V4l2PixelFormat::Yuyv => {
-            let encoded = mjpeg::yuyv_to_rgb(bytes, width, height)
-                .and_then(|rgb| slidetrack_core::encode_jpeg(&rgb, jpeg_quality).ok());
-            (mjpeg::yuyv_to_gray(bytes, width, height), encoded)
-        }
-        V4l2PixelFormat::Z16 => (None, mjpeg::z16_to_png(bytes, width, height)),
-    }
-}
-
 impl CaptureThread {
     fn run(self, dev: Device, tx: Sender<Result<Frame, DeviceError>>) {
         let mut stream = match Stream::with_buffers(&dev, Type::VideoCapture, self.buffers) {
@@ -254,32 +241,48 @@ impl CaptureThread {
                 return;
             }
         };
-        stream.set_timeout(self.timeout);
+        stream.set_timeout(self.startup_timeout);
         let clock_map = DriverClockMap::capture(self.clock.as_ref());
-        let mut dropped = 0u64;
+        let mut started = false;
         while !self.stop.load(Ordering::SeqCst) {
             let (bytes, meta) = match CaptureStream::next(&mut stream) {
                 Ok((bytes, meta)) => (bytes, *meta),
                 Err(e) => {
-                    let what = if e.kind() == std::io::ErrorKind::TimedOut {
-                        format!("no frame for {} ms", self.timeout.as_millis())
-                    } else {
-                        "capture failed (camera unplugged?)".into()
+                    let what = match (e.kind() == std::io::ErrorKind::TimedOut, started) {
+                        (true, false) => format!(
+                            "no first frame within {} ms (startup_timeout_ms)",
+                            self.startup_timeout.as_millis()
+                        ),
+                        (true, true) => format!("no frame for {} ms (timeout_ms)", self.timeout.as_millis()),
+                        (false, _) => "capture failed (camera unplugged?)".into(),
                     };
                     let _ = tx.send(Err(device_error(&self.device, &what, &e)));
-                    return;
+                    break;
                 }
             };
+            if !self.counters.accept(meta.flags.bits()) {
+                tracing::debug!("{}: frame {} flagged erroneous by the driver", self.device, meta.sequence);
+                continue;
+            }
             let used = (meta.bytesused as usize).min(bytes.len());
             let frame = self.frame(&bytes[..used], &meta, clock_map);
-            match tx.try_send(Ok(frame)) {
-                Ok(()) => {}
-                Err(TrySendError::Full(_)) => {
-                    dropped += 1;
-                    tracing::debug!("{}: trial loop behind, {dropped} frames dropped", self.device);
-                }
-                Err(TrySendError::Disconnected(_)) => return,
+            if !started {
+                started = true;
+                stream.set_timeout(self.timeout);
             }
+            match tx.try_send(Ok(frame)) {
+                Ok(()) => self.counters.delivered_one(),
+                Err(TrySendError::Full(_)) => {
+                    self.counters.overrun_one();
+                    tracing::debug!("{}: reader behind, frame {} dropped", self.device, meta.sequence);
+                }
+                Err(TrySendError::Disconnected(_)) => break,
+            }
+        }
+        if self.counters.erroneous() + self.counters.overrun() > 0 {
+            tracing::warn!("{}: {}", self.device, self.counters);
+        } else {
+            tracing::info!("{}: {}", self.device, self.counters);
         }
     }
 
@@ -294,8 +297,8 @@ impl CaptureThread {
             }
             None => now,
         };
-        let (pixels, encoded) = frame_content(self.format, self.width, self.height, self.jpeg_quality, bytes);
-        if self.format == V4l2PixelFormat::Mjpg && pixels.is_none() {
+        let (pixels, encoded) = frame_content(&self.layout, self.jpeg_quality, bytes);
+        if self.layout.format == V4l2PixelFormat::Mjpg && pixels.is_none() {
             tracing::debug!("{}: frame {} does not decode", self.device, meta.sequence);
         }
         Frame { t, sequence: u64::from(meta.sequence), pixels, encoded }
