@@ -1,14 +1,20 @@
 //! RGB-D inputs: recorded sessions ([`SessionRgbd`]), YCB-Video-style
 //! directories of PNGs ([`YcbDirectory`]) and live cameras, a colour camera paired with a Z16 depth camera
-//! ([`CameraPair`], for example two V4L2 devices), and depth registered to
-//! the colour camera ([`register_depth_to_color`]).
+//! ([`CameraPair`], for example two V4L2 devices, or a recording replayed
+//! in real time as two cameras, [`RecordedRgbd`], with its truth
+//! [`RecordedTruth`]), and depth registered to the colour camera
+//! ([`register_depth_to_color`]).
 
 mod camera_pair;
+mod recorded;
+mod recorded_truth;
 pub mod registration;
 mod session;
 mod ycb;
 
-pub use camera_pair::CameraPair;
+pub use camera_pair::{CameraPair, DepthRegistration, PairCounts, PairSettings};
+pub use recorded::{RecordedCamera, RecordedRgbd, ReplayCounts, ReplayOptions};
+pub use recorded_truth::RecordedTruth;
 pub use registration::register_depth_to_color;
 pub use session::SessionRgbd;
 pub use ycb::{YCB_CLASSES, YcbDirectory, YcbMeta, read_meta};
@@ -104,6 +110,21 @@ pub(crate) fn bgr_mat_to_rgb(mat: &Mat, what: &'static str) -> Result<Image, Vis
     opencv::imgproc::cvt_color_def(mat, &mut rgb, opencv::imgproc::COLOR_BGR2RGB).cv("cvtColor")?;
     let data = rgb.data_bytes().cv("colour bytes")?.to_vec();
     Ok(Image { width: rgb.cols() as u32, height: rgb.rows() as u32, format: PixelFormat::Rgb8, data })
+}
+
+/// Encodes a depth image as a 16-bit PNG (its raw units; the scale is not kept).
+pub fn encode_depth_png(depth: &DepthImage) -> Result<EncodedImage, VisionError> {
+    if depth.data.len() != depth.width as usize * depth.height as usize || depth.width == 0 {
+        return Err(VisionError::BadImage {
+            what: "depth image",
+            detail: format!("{}x{} px with {} values", depth.width, depth.height, depth.data.len()),
+        });
+    }
+    let flat = Mat::from_slice(&depth.data).cv("depth values")?;
+    let mat = flat.reshape(1, depth.height as i32).cv("depth reshape")?;
+    let mut out = Vector::<u8>::new();
+    imgcodecs::imencode(".png", &mat, &mut out, &Vector::new()).cv("imencode PNG")?;
+    Ok(EncodedImage { format: "png".into(), bytes: out.to_vec() })
 }
 
 /// A 16-bit one-channel OpenCV image as a depth image.
