@@ -8,6 +8,7 @@ use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use slidetrack_control::ProtocolSettings;
 use slidetrack_drivers::HwRigConfig;
+use slidetrack_drivers::rgbd_config::RgbdCameraConfig;
 use slidetrack_sim::SimRigConfig;
 use slidetrack_sim::camera::SimCameraConfig;
 
@@ -28,6 +29,9 @@ pub struct RigConfig {
     /// The real rig's devices (`--rig hw`); absent for the simulated rig.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hw: Option<HwRigConfig>,
+    /// The RGB-D camera of the vision trackers (`vision track --live`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rgbd: Option<RgbdCameraConfig>,
 }
 
 /// The ArUco marker on the object (its size comes with the object).
@@ -105,6 +109,9 @@ impl RigConfig {
                 "protocol.control_rate_hz ({}) must be at most the hw tactile rate ({rate})",
                 self.protocol.control_rate_hz
             );
+        }
+        if let Some(rgbd) = &self.rgbd {
+            rgbd.validate()?;
         }
         Ok(())
     }

@@ -93,8 +93,8 @@ pub struct VisionTrackArgs {
     pub tracker: TrackerArg,
     /// An RGB-D session (.mcap) or a directory of YCB-Video-style frames
     /// (NNNNNN-color.png, -depth.png, -label.png, -meta.mat).
-    #[arg(long)]
-    pub input: PathBuf,
+    #[arg(long, required_unless_present = "live", conflicts_with = "live")]
+    pub input: Option<PathBuf>,
     /// Object model: .obj, .ply or .xyz (metres), or `sim` for the object of
     /// a simulated session.
     #[arg(long)]
@@ -124,6 +124,18 @@ pub struct VisionTrackArgs {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Track live on the `[rgbd]` camera of --rig (V4L2 colour and depth
+    /// nodes, or a recording standing in for them), until Ctrl-C or
+    /// --duration; with --out the RGB-D frames are recorded too.
+    #[arg(long, requires = "rig")]
+    pub live: bool,
+    /// Rig TOML with the `[rgbd]` table, for --live.
+    #[arg(long, requires = "live")]
+    pub rig: Option<PathBuf>,
+    /// Stop a --live run after this long (s); default: Ctrl-C (or the end
+    /// of a recording).
+    #[arg(long, requires = "live")]
+    pub duration: Option<f64>,
 }
 
 /// Arguments of `vision eval`.
@@ -205,6 +217,12 @@ mod tests {
         let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
         assert_eq!(t.tracker, TrackerArg::Roft);
         assert_eq!(t.measurements, MeasurementsArg::Input);
+        let live = ["slidetrack", "vision", "track", "--tracker", "roft", "--model", "m.obj", "--live"];
+        let cli = Cli::try_parse_from(live.iter().chain(&["--rig", "r.toml", "--duration", "5"])).unwrap();
+        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
+        assert!(t.live && t.input.is_none() && t.duration == Some(5.0));
+        assert!(Cli::try_parse_from(live).is_err(), "--live needs --rig");
+        assert!(Cli::try_parse_from(live.iter().chain(&["--rig", "r", "--input", "s.mcap"])).is_err());
         let cli = Cli::try_parse_from([
             "slidetrack",
             "vision",

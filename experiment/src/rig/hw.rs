@@ -300,7 +300,7 @@ fn sim_renderer(spec: &TrialSpec) -> Result<SimCameraRenderer> {
 
 /// The intrinsics of a V4L2 camera: its calibration file (ROS `camera_info`
 /// or OpenCV YAML, or TOML with the fields of `intrinsics`) or the inline table.
-fn v4l2_intrinsics(v: &V4l2CameraConfig) -> Result<CameraIntrinsics> {
+pub fn v4l2_intrinsics(v: &V4l2CameraConfig) -> Result<CameraIntrinsics> {
     let intrinsics = match (&v.calibration, &v.intrinsics) {
         (Some(path), _) => read_intrinsics(path, v.width, v.height)?,
         (None, Some(k)) => k.clone(),

@@ -21,7 +21,7 @@ use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
-pub use hw::describe;
+pub use hw::{describe, v4l2_intrinsics};
 
 use crate::marker::{LiveMarkers, MarkerSource};
 use crate::rig_config::RigConfig;

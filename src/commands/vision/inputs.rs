@@ -94,7 +94,7 @@ pub fn perturbed(pose: &Isometry3<f64>) -> Isometry3<f64> {
 }
 
 /// The model: a file, or `sim` for the object of a simulated session.
-fn load_model(spec: &str, scale: f64, session: Option<(&Path, ReadOptions)>) -> Result<ObjectModel> {
+pub fn load_model(spec: &str, scale: f64, session: Option<(&Path, ReadOptions)>) -> Result<ObjectModel> {
     if spec == "sim" {
         let (path, options) = session.context("--model sim needs a simulated session as --input")?;
         let info = SessionInfo::read(path, options)?;

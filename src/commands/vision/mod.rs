@@ -3,6 +3,8 @@
 
 mod eval;
 mod inputs;
+mod live;
+mod live_camera;
 mod simulate;
 mod track;
 

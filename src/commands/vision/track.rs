@@ -16,6 +16,9 @@ use super::inputs::{InputOptions, Prepared, prepare};
 use crate::cli::VisionTrackArgs as TrackArgs;
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
+    let Some(input) = &args.input else {
+        return super::live::run(args, quiet);
+    };
     let options = InputOptions {
         model: &args.model,
         model_scale: args.model_scale,
@@ -25,7 +28,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         recover: args.recover,
     };
     let Prepared { mut source, mut measurements, model, intrinsics, initial_pose } =
-        prepare(&args.input, &options)?;
+        prepare(input, &options)?;
     let kind = args.tracker.kind();
     let settings = TrackerSettings { initial_pose, ..TrackerSettings::default() };
     let mut tracker = build_tracker(kind, &model, &intrinsics, &settings)?;
@@ -94,7 +97,7 @@ fn recorder(args: &TrackArgs, path: &std::path::Path, kind: TrackerKind, model: 
     let metadata = BTreeMap::from([
         ("software_version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
         ("tracker".to_string(), kind.name().to_string()),
-        ("input".to_string(), args.input.display().to_string()),
+        ("input".to_string(), args.input.as_ref().map(|p| p.display().to_string()).unwrap_or_default()),
         ("model".to_string(), model.to_string()),
     ]);
     Ok(Recorder::create_with_options(path, metadata, options)?)

@@ -255,5 +255,3 @@ impl Camera for RecordedCamera {
     }
 }
 
-#[cfg(test)]
-mod tests;

@@ -22,7 +22,7 @@
 //! streams are taken as rectified pinhole images (true of RealSense depth
 //! streams; the colour stream's small distortion is ignored).
 
-use nalgebra::{Isometry3, Point3};
+use nalgebra::{Isometry3, Vector3};
 use slidetrack_core::{CameraIntrinsics, DepthImage};
 
 use crate::VisionError;
@@ -46,33 +46,55 @@ pub fn register_depth_to_color(
     let (width, height) = (color_intrinsics.width, color_intrinsics.height);
     let mut out =
         DepthImage { width, height, data: vec![0; width as usize * height as usize], scale_m: depth.scale_m };
-    let back_project = |u: f64, v: f64, z_m: f64| {
-        let k = depth_intrinsics;
-        Point3::new((u - k.cx) / k.fx * z_m, (v - k.cy) / k.fy * z_m, z_m)
-    };
-    let project = |p_in_color: &Point3<f64>| {
+    // The rays through the depth pixels' corners, turned into the colour
+    // camera's orientation once: a point at depth `z` on the ray through
+    // corner `(i - ½, j - ½)` is `z * rays[j * (w + 1) + i] + t` in the colour
+    // frame (the back-projection is linear in `z`, so this is the
+    // isometry applied to the back-projected corner).
+    let rotation = color_from_depth.rotation.to_rotation_matrix().into_inner();
+    let t = color_from_depth.translation.vector;
+    let (t, corners_per_row) = ([t.x, t.y, t.z], depth.width as usize + 1);
+    let k = depth_intrinsics;
+    let mut rays = Vec::with_capacity(corners_per_row * (depth.height as usize + 1));
+    for j in 0..=depth.height {
+        for i in 0..=depth.width {
+            let ray = Vector3::new((f64::from(i) - 0.5 - k.cx) / k.fx, (f64::from(j) - 0.5 - k.cy) / k.fy, 1.0);
+            let turned = rotation * ray;
+            rays.push([turned.x, turned.y, turned.z]);
+        }
+    }
+    let at = |ray: [f64; 3], z_m: f64| [z_m * ray[0] + t[0], z_m * ray[1] + t[1], z_m * ray[2] + t[2]];
+    let project = |p_in_color: [f64; 3]| {
         let k = color_intrinsics;
-        (k.fx * p_in_color.x / p_in_color.z + k.cx, k.fy * p_in_color.y / p_in_color.z + k.cy)
+        (k.fx * p_in_color[0] / p_in_color[2] + k.cx, k.fy * p_in_color[1] / p_in_color[2] + k.cy)
     };
-    for v in 0..depth.height {
-        for u in 0..depth.width {
-            let raw = depth.data[(v * depth.width + u) as usize];
+    for v in 0..depth.height as usize {
+        for u in 0..depth.width as usize {
+            let raw = depth.data[v * depth.width as usize + u];
             if raw == 0 {
                 continue;
             }
             let z_in_depth_m = f64::from(raw) * depth.scale_m;
-            let (u, v) = (f64::from(u), f64::from(v));
-            let centre_in_color = color_from_depth * back_project(u, v, z_in_depth_m);
-            if centre_in_color.z <= 0.0 {
+            let corner_rays = [
+                rays[v * corners_per_row + u],
+                rays[v * corners_per_row + u + 1],
+                rays[(v + 1) * corners_per_row + u],
+                rays[(v + 1) * corners_per_row + u + 1],
+            ];
+            // The ray through the centre is the mean of the corners' rays.
+            let centre_ray: [f64; 3] =
+                std::array::from_fn(|c| corner_rays.iter().map(|r| r[c]).sum::<f64>() / 4.0);
+            let centre_in_color = at(centre_ray, z_in_depth_m);
+            if centre_in_color[2] <= 0.0 {
                 continue;
             }
             // The footprint: the box around the four corners' projections.
             let mut footprint = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
             let mut behind = false;
-            for (du, dv) in [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)] {
-                let corner_in_color = color_from_depth * back_project(u + du, v + dv, z_in_depth_m);
-                behind |= corner_in_color.z <= 0.0;
-                let (uc, vc) = project(&corner_in_color);
+            for ray in corner_rays {
+                let corner_in_color = at(ray, z_in_depth_m);
+                behind |= corner_in_color[2] <= 0.0;
+                let (uc, vc) = project(corner_in_color);
                 footprint =
                     [footprint[0].min(uc), footprint[1].min(vc), footprint[2].max(uc), footprint[3].max(vc)];
             }
@@ -81,7 +103,7 @@ pub fn register_depth_to_color(
             }
             // Colour pixels whose centres lie in the footprint (at least the
             // one under the centre).
-            let (uc, vc) = project(&centre_in_color);
+            let (uc, vc) = project(centre_in_color);
             let range = |lo: f64, hi: f64, centre: f64, size: u32| -> Option<(u32, u32)> {
                 let first = lo.ceil().min(centre.round()).max(0.0);
                 let last = (hi.ceil() - 1.0).max(centre.round()).min(f64::from(size) - 1.0);
@@ -93,7 +115,7 @@ pub fn register_depth_to_color(
             else {
                 continue;
             };
-            let z_raw = (centre_in_color.z / depth.scale_m).round().clamp(1.0, f64::from(u16::MAX)) as u16;
+            let z_raw = (centre_in_color[2] / depth.scale_m).round().clamp(1.0, f64::from(u16::MAX)) as u16;
             for row in v0..=v1 {
                 for column in u0..=u1 {
                     let cell = &mut out.data[(row * width + column) as usize];
@@ -153,7 +175,7 @@ fn check_inputs(
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::{Translation3, UnitQuaternion, Vector3};
+    use nalgebra::{Point3, Translation3, UnitQuaternion};
 
     use super::*;
 
