@@ -3,6 +3,8 @@
 //! as two unsynchronised cameras, paired and registered), recording frames
 //! and estimates; bad rigs fail with one line.
 
+#![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
+
 mod common;
 
 use std::collections::BTreeMap;
@@ -43,31 +45,47 @@ fn mean_errors<'a>(
     (errors.iter().map(|e| e.0).sum::<f64>() / n, errors.iter().map(|e| e.1).sum::<f64>() / n)
 }
 
-/// ROFT from the thesis's perturbed start (8.7 cm, 19 degrees off), with the
-/// recording's own delayed network masks and poses moved onto the run's
-/// clock, on a 3 s replay of a fast object. Over the second half of the run
-/// its estimates are closer to the truth than a tracker frozen at its first
-/// estimate, by a wide margin.
+/// MaskUKF from the thesis's perturbed start (8.7 cm, 19 degrees off), with
+/// the true masks of the recording, on a 4 s replay of a moving object
+/// (0.15 m/s, 45 deg/s peak). Over the second half of the run its estimates
+/// are closer to the truth than a tracker frozen at its first estimate, by
+/// a wide margin, however many frames a loaded machine skips.
 #[test]
-fn roft_tracks_live_on_a_replayed_session_and_records_frames_and_estimates() {
+fn maskukf_tracks_live_on_a_replayed_session_and_records_frames_and_estimates() {
     let dir = tempdir();
-    let session = dir.path().join("fast.mcap");
+    let session = dir.path().join("moving.mcap");
     let s = session.to_str().unwrap();
-    ok(&["-q", "vision", "simulate", "--object", "sugar_box", "--duration", "3", "--seed", "4", "--out", s]);
+    let simulate = ["-q", "vision", "simulate", "--object", "sugar_box", "--duration", "4", "--seed", "4"];
+    ok(&[&simulate[..], &["--max-speed", "0.15", "--max-angular-speed", "45", "--out", s]].concat());
     let rig = rig(dir.path(), &session);
     let out = dir.path().join("live.mcap");
     let o = out.to_str().unwrap();
     let args = [
-        "-q", "vision", "track", "--live", "--rig", &rig, "--tracker", "roft", "--model", "sim",
-        "--measurements", "input", "--init", "perturbed", "--out", o, "--json",
+        "-q",
+        "vision",
+        "track",
+        "--live",
+        "--rig",
+        &rig,
+        "--tracker",
+        "maskukf",
+        "--model",
+        "sim",
+        "--measurements",
+        "truth",
+        "--init",
+        "perturbed",
+        "--out",
+        o,
+        "--json",
     ];
     let summary: Value = serde_json::from_str(&ok(&args)).unwrap();
-    println!("live roft on the replay: {summary}");
+    println!("live maskukf on the replay: {summary}");
     let frames = summary["frames"].as_u64().unwrap();
     let tracked = summary["tracked"].as_u64().unwrap();
     // A loaded machine drops frames, but the replay runs its 3 s.
     assert!(frames >= 10 && tracked == frames, "{summary}");
-    assert!(summary["seconds"].as_f64().unwrap() > 2.8, "{summary}");
+    assert!(summary["seconds"].as_f64().unwrap() > 3.8, "{summary}");
     assert_eq!(summary["pairing"]["pairs"].as_u64(), Some(frames));
 
     let info = SessionInfo::read(&out, ReadOptions::default()).unwrap();
@@ -75,7 +93,7 @@ fn roft_tracks_live_on_a_replayed_session_and_records_frames_and_estimates() {
         assert_eq!(info.channel(topic).map(|c| c.message_count), Some(frames), "{topic}");
     }
     assert_eq!(info.channel("/rgbd/calibration").map(|c| c.message_count), Some(1));
-    for topic in ["/estimate/pose/roft", "/estimate/transform/roft", "/estimate/velocity/roft"] {
+    for topic in ["/estimate/pose/maskukf", "/estimate/transform/maskukf", "/estimate/velocity/maskukf"] {
         assert_eq!(info.channel(topic).map(|c| c.message_count), Some(tracked), "{topic}");
     }
 
@@ -84,11 +102,12 @@ fn roft_tracks_live_on_a_replayed_session_and_records_frames_and_estimates() {
         .into_iter()
         .map(|(t, o)| (t.0, o.to_sim(t).unwrap().camera_from_object))
         .collect();
-    let poses: Vec<(u64, _)> = read_json::<PoseInFrame>(&out, "/estimate/pose/roft", ReadOptions::default())
-        .unwrap()
-        .into_iter()
-        .map(|(t, p)| (t.0, p.pose.to_isometry().unwrap()))
-        .collect();
+    let poses: Vec<(u64, _)> =
+        read_json::<PoseInFrame>(&out, "/estimate/pose/maskukf", ReadOptions::default())
+            .unwrap()
+            .into_iter()
+            .map(|(t, p)| (t.0, p.pose.to_isometry().unwrap()))
+            .collect();
     let second_half = &poses[poses.len() / 2..];
     let (tracked_cm, tracked_deg) = mean_errors(second_half.iter().map(|(t, p)| (*t, p)), &truth);
     let frozen = poses[0].1;
@@ -96,8 +115,11 @@ fn roft_tracks_live_on_a_replayed_session_and_records_frames_and_estimates() {
     println!(
         "second half: tracked {tracked_cm:.2} cm, {tracked_deg:.1} deg; frozen at the start {frozen_cm:.2} cm, {frozen_deg:.1} deg"
     );
-    assert!(tracked_cm < 6.0 && tracked_deg < 20.0, "{tracked_cm:.2} cm, {tracked_deg:.1} deg");
-    assert!(tracked_cm < frozen_cm / 2.0, "{tracked_cm:.2} cm vs frozen {frozen_cm:.2} cm");
+    // Measured: 0.69 cm and 4.8 deg tracked, 2.39 cm and 19.7 deg frozen
+    // (36 of 120 frames processed on a loaded machine).
+    assert!(tracked_cm < 2.0 && tracked_deg < 10.0, "{tracked_cm:.2} cm, {tracked_deg:.1} deg");
+    assert!(tracked_cm < 0.75 * frozen_cm, "{tracked_cm:.2} cm vs frozen {frozen_cm:.2} cm");
+    assert!(tracked_deg < frozen_deg / 2.0, "{tracked_deg:.1} deg vs frozen {frozen_deg:.1} deg");
 }
 
 #[test]

@@ -297,26 +297,44 @@ impl RgbdCameraConfig {
     pub fn validate(&self) -> Result<(), RgbdConfigError> {
         match self {
             RgbdCameraConfig::V4l2(c) => {
-                check_common(c.depth_scale_m, c.pairing_tolerance_ms, c.pair_timeout_ms, c.depth_to_color.as_ref())?;
+                check_common(
+                    c.depth_scale_m,
+                    c.pairing_tolerance_ms,
+                    c.pair_timeout_ms,
+                    c.depth_to_color.as_ref(),
+                )?;
                 check_node("rgbd.color", &c.color)?;
                 check_node("rgbd.depth", &c.depth)?;
                 if c.color.pixel_format == V4l2PixelFormat::Z16 {
                     let (field, format) = ("rgbd.color.pixel_format".into(), c.color.pixel_format);
-                    return Err(RgbdConfigError::PixelFormat { field, format, expected: "YUYV, MJPG or GREY" });
+                    return Err(RgbdConfigError::PixelFormat {
+                        field,
+                        format,
+                        expected: "YUYV, MJPG or GREY",
+                    });
                 }
                 if c.depth.pixel_format != V4l2PixelFormat::Z16 {
                     let (field, format) = ("rgbd.depth.pixel_format".into(), c.depth.pixel_format);
                     return Err(RgbdConfigError::PixelFormat { field, format, expected: "Z16" });
                 }
-                if c.depth_to_color.is_none() && (c.color.width, c.color.height) != (c.depth.width, c.depth.height) {
+                if c.depth_to_color.is_none()
+                    && (c.color.width, c.color.height) != (c.depth.width, c.depth.height)
+                {
                     return Err(RgbdConfigError::Extrinsics {
                         field: "rgbd.depth_to_color".into(),
-                        detail: "colour and depth differ in size, so depth is not registered: give the extrinsics".into(),
+                        detail:
+                            "colour and depth differ in size, so depth is not registered: give the extrinsics"
+                                .into(),
                     });
                 }
             }
             RgbdCameraConfig::Recording(r) => {
-                check_common(r.depth_scale_m, r.pairing_tolerance_ms, r.pair_timeout_ms, r.depth_to_color.as_ref())?;
+                check_common(
+                    r.depth_scale_m,
+                    r.pairing_tolerance_ms,
+                    r.pair_timeout_ms,
+                    r.depth_to_color.as_ref(),
+                )?;
                 if r.session.is_some() == r.directory.is_some() {
                     return Err(RgbdConfigError::Recording);
                 }
@@ -325,7 +343,10 @@ impl RgbdCameraConfig {
                 range("rgbd.color_delay_ms", d, d.is_finite() && d.abs() < 1000.0, "within 1000 ms")?;
                 if r.directory.is_some() && r.color_intrinsics.is_none() {
                     let detail = "a directory of frames needs `color_intrinsics`".into();
-                    return Err(RgbdConfigError::Intrinsics { field: "rgbd.color_intrinsics".into(), detail });
+                    return Err(RgbdConfigError::Intrinsics {
+                        field: "rgbd.color_intrinsics".into(),
+                        detail,
+                    });
                 }
             }
         }

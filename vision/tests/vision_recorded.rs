@@ -4,6 +4,8 @@
 //! [`CameraPair`] (colour delayed as on unsynchronised nodes, identity
 //! extrinsics) every frame comes back as recorded, with its truth.
 
+#![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
+
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -16,7 +18,8 @@ use slidetrack_session::Recorder;
 use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
 use slidetrack_vision::cloud::mask;
 use slidetrack_vision::input::{
-    CameraPair, DepthRegistration, PairSettings, RecordedRgbd, RecordedTruth, ReplayOptions, RgbdSource, SessionRgbd,
+    CameraPair, DepthRegistration, PairSettings, RecordedRgbd, RecordedTruth, ReplayOptions, RgbdSource,
+    SessionRgbd,
 };
 use slidetrack_vision::record::RgbdChannels;
 
@@ -122,7 +125,8 @@ fn a_camera_pair_on_the_replay_gives_back_every_recorded_frame_with_its_truth() 
         registration: Some(registration),
     };
     let offset = replay.offset_ns;
-    let mut pair = CameraPair::new(Box::new(replay.color), Box::new(replay.depth), settings).with_end(replay.ended);
+    let mut pair =
+        CameraPair::new(Box::new(replay.color), Box::new(replay.depth), settings).with_end(replay.ended);
     let mut recorded = SessionRgbd::open(&session, Default::default()).unwrap();
     let mut truth = RecordedTruth::open(&session).unwrap();
     for k in 0..FRAMES {

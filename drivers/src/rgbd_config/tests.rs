@@ -13,8 +13,7 @@ fn parse(text: &str) -> Result<RgbdCameraConfig, String> {
     Ok(rig.rgbd)
 }
 
-const INTRINSICS: &str =
-    "{ width = 640, height = 480, fx = 600.0, fy = 600.0, cx = 320.0, cy = 240.0, distortion = [0.0, 0.0, 0.0, 0.0, 0.0] }";
+const INTRINSICS: &str = "{ width = 640, height = 480, fx = 600.0, fy = 600.0, cx = 320.0, cy = 240.0, distortion = [0.0, 0.0, 0.0, 0.0, 0.0] }";
 
 fn v4l2(extra: &str) -> String {
     format!(
@@ -55,26 +54,39 @@ fn bad_values_name_their_field() {
         (v4l2("depth_scale_m = 0.0"), "rgbd.depth_scale_m"),
         (v4l2("pairing_tolerance_ms = -1.0"), "rgbd.pairing_tolerance_ms"),
         (v4l2("").replace("pixel_format = \"z16\"", "pixel_format = \"YUYV\""), "rgbd.depth.pixel_format"),
-        (v4l2("").replace("device = \"/dev/video4\"", "device = \"/dev/video4\"\npixel_format = \"Z16\""), "rgbd.color.pixel_format"),
+        (
+            v4l2("").replace("device = \"/dev/video4\"", "device = \"/dev/video4\"\npixel_format = \"Z16\""),
+            "rgbd.color.pixel_format",
+        ),
         (v4l2("").replacen(&format!("intrinsics = {INTRINSICS}\n"), "", 1), "rgbd.color"),
         (v4l2("").replace("device = \"/dev/video0\"", "device = \"/dev/video0\"\nwidth = 848"), "rgbd.depth"),
-        (v4l2("").replace("device = \"/dev/video0\"", "device = \"/dev/video0\"\nstartup_timeout_ms = 0"), "rgbd.depth.startup_timeout_ms"),
+        (
+            v4l2("").replace("device = \"/dev/video0\"", "device = \"/dev/video0\"\nstartup_timeout_ms = 0"),
+            "rgbd.depth.startup_timeout_ms",
+        ),
         (
             v4l2("depth_to_color = { rotation_row_major = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0] }"),
             "rgbd.depth_to_color: needs translation_m",
         ),
         (
-            v4l2("depth_to_color = { rotation_row_major = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -1.0], translation_m = [0.0, 0.0, 0.0] }"),
+            v4l2(
+                "depth_to_color = { rotation_row_major = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -1.0], translation_m = [0.0, 0.0, 0.0] }",
+            ),
             "rgbd.depth_to_color: the rotation is not a rotation matrix (determinant",
         ),
         (
-            v4l2("depth_to_color = { rotation_row_major = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], translation_m = [15.0, 0.0, 0.0] }"),
+            v4l2(
+                "depth_to_color = { rotation_row_major = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], translation_m = [15.0, 0.0, 0.0] }",
+            ),
             "rgbd.depth_to_color: translation_m",
         ),
         ("[rgbd]\nkind = \"recording\"\n".to_string(), "exactly one of `session` and `directory`"),
         ("[rgbd]\nkind = \"recording\"\ndirectory = \"frames\"\n".to_string(), "rgbd.color_intrinsics"),
         ("[rgbd]\nkind = \"recording\"\nsession = \"s.mcap\"\nfps = 0.0\n".to_string(), "rgbd.fps"),
-        ("[rgbd]\nkind = \"recording\"\nsession = \"s.mcap\"\nframes = 3\n".to_string(), "unknown field `frames`"),
+        (
+            "[rgbd]\nkind = \"recording\"\nsession = \"s.mcap\"\nframes = 3\n".to_string(),
+            "unknown field `frames`",
+        ),
         ("[rgbd]\nkind = \"realsense\"\n".to_string(), "unknown variant `realsense`"),
     ];
     for (text, field) in cases {

@@ -69,7 +69,10 @@ fn yuyv_frames_give_their_luma_and_a_jpeg() {
     let decoded = mjpeg::decode_gray(&encoded.bytes).unwrap();
     assert_eq!((decoded.width, decoded.height), (w, h));
     // A short buffer (a truncated transfer) gives nothing rather than garbage.
-    assert_eq!(frame_content(&FrameLayout::packed(V4l2PixelFormat::Yuyv, w, h), 90, &yuyv[..100]), (None, None));
+    assert_eq!(
+        frame_content(&FrameLayout::packed(V4l2PixelFormat::Yuyv, w, h), 90, &yuyv[..100]),
+        (None, None)
+    );
 }
 
 #[test]
@@ -274,9 +277,10 @@ fn rgbd_node(var: &str, formats: &[V4l2PixelFormat]) -> Option<V4l2CameraConfig>
 #[cfg_attr(not(slidetrack_rgbd), ignore = "needs SLIDETRACK_RGBD_COLOR and SLIDETRACK_RGBD_DEPTH")]
 fn a_real_rgbd_camera_streams_colour_and_z16_depth() {
     let formats = [V4l2PixelFormat::Yuyv, V4l2PixelFormat::Mjpg, V4l2PixelFormat::Grey];
-    let (Some(color), Some(depth)) =
-        (rgbd_node("SLIDETRACK_RGBD_COLOR", &formats), rgbd_node("SLIDETRACK_RGBD_DEPTH", &[V4l2PixelFormat::Z16]))
-    else {
+    let (Some(color), Some(depth)) = (
+        rgbd_node("SLIDETRACK_RGBD_COLOR", &formats),
+        rgbd_node("SLIDETRACK_RGBD_DEPTH", &[V4l2PixelFormat::Z16]),
+    ) else {
         return;
     };
     let clock = Arc::new(WallClock::start());
@@ -308,10 +312,20 @@ fn a_real_rgbd_camera_streams_colour_and_z16_depth() {
         let encoded = got[0].encoded.as_ref().unwrap();
         let want = if cfg.pixel_format == V4l2PixelFormat::Z16 { "png" } else { "jpeg" };
         assert_eq!(encoded.format, want, "{}", cfg.device);
-        eprintln!("{}: {:?} {}x{}: {}", cfg.device, cfg.pixel_format, cfg.width, cfg.height, camera.counters());
+        eprintln!(
+            "{}: {:?} {}x{}: {}",
+            cfg.device,
+            cfg.pixel_format,
+            cfg.width,
+            cfg.height,
+            camera.counters()
+        );
     }
     // Depth frames are 16-bit PNGs of the node's size.
     let png = &frames[1][0].encoded.as_ref().unwrap().bytes;
     let info = png::Decoder::new(std::io::Cursor::new(png)).read_info().unwrap().info().clone();
-    assert_eq!((info.width, info.height, info.bit_depth), (depth.width, depth.height, png::BitDepth::Sixteen));
+    assert_eq!(
+        (info.width, info.height, info.bit_depth),
+        (depth.width, depth.height, png::BitDepth::Sixteen)
+    );
 }

@@ -22,7 +22,9 @@ use slidetrack_vision::record::{EstimateChannels, RgbdChannels};
 use slidetrack_vision::sources::{
     Arrivals, FrameTruth, MeasurementSource, SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
 };
-use slidetrack_vision::{ObjectModel, OnlineTracker, TrackerSettings, VisionError, build_tracker};
+use slidetrack_vision::{
+    ObjectModel, OnlineTracker, TrackedState, TrackerSettings, VisionError, build_tracker,
+};
 
 use super::inputs::{load_model, perturbed};
 use super::live_camera::{self, LiveCamera};
@@ -49,12 +51,8 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let mut truth = session.map(RecordedTruth::open).transpose()?;
     let offset_ns = replayed.as_ref().map_or(0, |(_, o)| *o);
     let mut measurements = measurements(args.measurements, session, offset_ns)?;
-    let recorder = args.out.as_ref().map(|path| recorder(args, path, rig_path, offset_ns, &model)).transpose()?;
     let intrinsics = camera.pair.intrinsics().clone();
-    let channels = match &recorder {
-        Some(r) => Some((RgbdChannels::register(&r.logger(), &intrinsics)?, EstimateChannels::register(&r.logger(), args.tracker.kind())?)),
-        None => None,
-    };
+    let output = Output::open(args, rig_path, offset_ns, &model, &intrinsics)?;
     if !quiet {
         eprintln!("tracking live on the [rgbd] camera of {} (Ctrl-C stops)", rig_path.display());
     }
@@ -62,8 +60,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let started = Instant::now();
     let limit = args.duration.map(Duration::from_secs_f64);
     let mut tracker: Option<Box<dyn OnlineTracker>> = None;
-    let (mut frames, mut tracked, mut busy) = (0usize, 0usize, Duration::ZERO);
-    let (mut results, mut last_pose) = (Vec::new(), None);
+    let mut tally = Tally::default();
     while !stop.load(Ordering::SeqCst) && limit.is_none_or(|l| started.elapsed() < l) {
         let Some(mut sample) = camera.pair.next_frame()? else { break };
         if let Some(truth) = truth.as_mut() {
@@ -78,44 +75,27 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
             sample.frame.t,
             frame_truth.map(|(t, m)| FrameTruth { camera_from_object: &t.camera_from_object, mask: m }),
         )?;
-        if let Some(p) = arrivals.latest_pose() {
-            last_pose = Some(p.value);
-        }
         let step = Instant::now();
         let state = tracker.process(&sample.frame, &arrivals)?;
-        busy += step.elapsed();
-        frames += 1;
-        if let (Some(r), Some((rgbd, estimates))) = (&recorder, &channels) {
-            let jpeg = encode_color_jpeg(&sample.frame.color, JPEG_QUALITY)?;
-            rgbd.log_frame(&r.logger(), &sample.frame, &jpeg, sample.truth.as_ref(), None)?;
-            if let Some(s) = &state {
-                estimates.log(&r.logger(), s)?;
-            }
-        }
-        tracked += usize::from(state.is_some());
-        if let Some(truth) = sample.truth {
-            results.push(TrackedFrame {
-                truth,
-                flow_velocity: state.as_ref().and_then(|s| s.flow_velocity),
-                estimate: state.map(|s| s.estimate),
-                last_measured_pose: last_pose,
-            });
-        }
+        tally.busy += step.elapsed();
+        output.log(&sample, state.as_ref())?;
+        tally.add(sample, state, &arrivals);
     }
-    if let Some(r) = recorder {
+    if let Some(r) = output.recorder {
         r.finish()?;
     }
+    let results = &tally.results;
     let first = results.iter().position(|f| f.estimate.is_some()).unwrap_or(results.len());
     let metrics = (first < results.len())
-        .then(|| model.object_points().map(|points| score(&results, first, Scored::Tracker, &points)))
+        .then(|| model.object_points().map(|points| score(results, first, Scored::Tracker, &points)))
         .transpose()?;
     let summary = json!({
         "tracker": args.tracker.kind().name(),
         "rig": rig_path,
-        "frames": frames,
-        "tracked": tracked,
+        "frames": tally.frames,
+        "tracked": tally.tracked,
         "seconds": started.elapsed().as_secs_f64(),
-        "tracker_fps": if busy.is_zero() { 0.0 } else { frames as f64 / busy.as_secs_f64() },
+        "tracker_fps": if tally.busy.is_zero() { 0.0 } else { tally.frames as f64 / tally.busy.as_secs_f64() },
         "pairing": camera.pair.counts(),
         "streams": camera.counts(),
         "estimates": args.out,
@@ -123,6 +103,74 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     });
     report(args, &summary, &camera);
     Ok(())
+}
+
+/// What a run counted, and the estimates with the truth when it has one.
+#[derive(Default)]
+struct Tally {
+    frames: usize,
+    tracked: usize,
+    busy: Duration,
+    results: Vec<TrackedFrame>,
+    last_pose: Option<nalgebra::Isometry3<f64>>,
+}
+
+impl Tally {
+    fn add(&mut self, sample: RgbdSample, state: Option<TrackedState>, arrivals: &Arrivals) {
+        if let Some(p) = arrivals.latest_pose() {
+            self.last_pose = Some(p.value);
+        }
+        self.frames += 1;
+        self.tracked += usize::from(state.is_some());
+        if let Some(truth) = sample.truth {
+            self.results.push(TrackedFrame {
+                truth,
+                flow_velocity: state.as_ref().and_then(|s| s.flow_velocity),
+                estimate: state.map(|s| s.estimate),
+                last_measured_pose: self.last_pose,
+            });
+        }
+    }
+}
+
+/// The session of a live run (`--out`) and its channels.
+struct Output {
+    recorder: Option<Recorder>,
+    channels: Option<(RgbdChannels, EstimateChannels)>,
+}
+
+impl Output {
+    fn open(
+        args: &TrackArgs,
+        rig: &Path,
+        offset_ns: i128,
+        model: &ObjectModel,
+        intrinsics: &slidetrack_core::CameraIntrinsics,
+    ) -> Result<Output> {
+        let recorder =
+            args.out.as_ref().map(|path| recorder(args, path, rig, offset_ns, model)).transpose()?;
+        let channels = match &recorder {
+            Some(r) => Some((
+                RgbdChannels::register(&r.logger(), intrinsics)?,
+                EstimateChannels::register(&r.logger(), args.tracker.kind())?,
+            )),
+            None => None,
+        };
+        Ok(Output { recorder, channels })
+    }
+
+    /// Records the frame (colour as JPEG), its truth and the estimate.
+    fn log(&self, sample: &RgbdSample, state: Option<&TrackedState>) -> Result<()> {
+        let (Some(r), Some((rgbd, estimates))) = (&self.recorder, &self.channels) else {
+            return Ok(());
+        };
+        let jpeg = encode_color_jpeg(&sample.frame.color, JPEG_QUALITY)?;
+        rgbd.log_frame(&r.logger(), &sample.frame, &jpeg, sample.truth.as_ref(), None)?;
+        if let Some(s) = state {
+            estimates.log(&r.logger(), s)?;
+        }
+        Ok(())
+    }
 }
 
 /// The truth a replayed session recorded for this frame, on the run's clock.
@@ -171,9 +219,10 @@ fn measurements(
         );
     };
     Ok(match which {
-        MeasurementsArg::Input => {
-            Box::new(Shifted { inner: SessionMeasurements::open(session, ReadOptions::default())?, offset_ns })
-        }
+        MeasurementsArg::Input => Box::new(Shifted {
+            inner: SessionMeasurements::open(session, ReadOptions::default())?,
+            offset_ns,
+        }),
         MeasurementsArg::Network => Box::new(SlowNetwork::new(SlowNetworkConfig::default())),
         MeasurementsArg::Truth => Box::new(TruthSource { masks: true, poses: true }),
     })
@@ -203,7 +252,13 @@ impl<S: MeasurementSource> MeasurementSource for Shifted<S> {
 }
 
 /// The session of a live run, with what produced it in its metadata.
-fn recorder(args: &TrackArgs, path: &Path, rig: &Path, offset_ns: i128, model: &ObjectModel) -> Result<Recorder> {
+fn recorder(
+    args: &TrackArgs,
+    path: &Path,
+    rig: &Path,
+    offset_ns: i128,
+    model: &ObjectModel,
+) -> Result<Recorder> {
     let options = RecorderOptions { overwrite: args.overwrite, ..RecorderOptions::default() };
     let metadata = BTreeMap::from([
         ("software_version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
@@ -227,7 +282,10 @@ fn report(args: &TrackArgs, summary: &serde_json::Value, camera: &LiveCamera) {
     let name = args.tracker.kind().name();
     println!(
         "{name} live: {} of {} frames tracked in {:.1} s, {:.0} fps (tracker only)",
-        summary["tracked"], summary["frames"], summary["seconds"].as_f64().unwrap_or(0.0), summary["tracker_fps"].as_f64().unwrap_or(0.0)
+        summary["tracked"],
+        summary["frames"],
+        summary["seconds"].as_f64().unwrap_or(0.0),
+        summary["tracker_fps"].as_f64().unwrap_or(0.0)
     );
     let p = camera.pair.counts();
     println!(

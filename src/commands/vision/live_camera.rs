@@ -103,10 +103,17 @@ fn open_recording(r: &RecordedRgbdConfig, rig_dir: &Path, clock: Arc<dyn Clock>)
     };
     let (color_counts, depth_counts) = (replay.color.counts(), replay.depth.counts());
     let report = |what: &'static str, c: Arc<slidetrack_vision::input::ReplayCounts>| -> CountReport {
-        Box::new(move || format!("{what}: {} frames delivered, {} lost while the tracker was behind", c.delivered(), c.lost()))
+        Box::new(move || {
+            format!(
+                "{what}: {} frames delivered, {} lost while the tracker was behind",
+                c.delivered(),
+                c.lost()
+            )
+        })
     };
     let offset = replay.offset_ns;
-    let pair = CameraPair::new(Box::new(replay.color), Box::new(replay.depth), settings).with_end(replay.ended);
+    let pair =
+        CameraPair::new(Box::new(replay.color), Box::new(replay.depth), settings).with_end(replay.ended);
     Ok(LiveCamera {
         pair,
         replay: session.map(|s| (s, offset)),
@@ -137,11 +144,14 @@ fn open_v4l2(
 ) -> Result<LiveCamera> {
     use slidetrack_drivers::V4l2Camera;
     use slidetrack_experiment::rig::v4l2_intrinsics;
-    let node = |n: &slidetrack_drivers::config::V4l2CameraConfig, field: &str| -> Result<(V4l2Camera, CameraIntrinsics)> {
+    let node = |n: &slidetrack_drivers::config::V4l2CameraConfig,
+                field: &str|
+     -> Result<(V4l2Camera, CameraIntrinsics)> {
         let mut n = n.clone();
         n.calibration = n.calibration.map(|c| resolve(rig_dir, &c));
         let k = v4l2_intrinsics(&n).with_context(|| format!("{field}: {}", n.device))?;
-        let camera = V4l2Camera::open(&n, k.clone(), Arc::clone(&clock)).with_context(|| format!("{field}"))?;
+        let camera =
+            V4l2Camera::open(&n, k.clone(), Arc::clone(&clock)).with_context(|| field.to_string())?;
         Ok((camera, k))
     };
     let (color, color_intrinsics) = node(&v.color, "rgbd.color")?;
@@ -185,8 +195,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let text = "rotation_column_major = [0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0]\ntranslation_m = [0.015, 0.0, 0.001]\n";
         std::fs::write(dir.path().join("e.toml"), text).unwrap();
-        let from_file =
-            color_from_depth(&DepthToColor { file: Some("e.toml".into()), ..DepthToColor::default() }, dir.path()).unwrap();
+        let from_file = color_from_depth(
+            &DepthToColor { file: Some("e.toml".into()), ..DepthToColor::default() },
+            dir.path(),
+        )
+        .unwrap();
         // A 90 degree turn about z (x -> y), then the translation.
         let p = from_file * nalgebra::Point3::new(1.0, 0.0, 0.0);
         assert!((p.coords - Vector3::new(0.015, 1.0, 0.001)).norm() < 1e-12, "{p}");

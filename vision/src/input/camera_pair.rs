@@ -160,7 +160,8 @@ impl CameraPair {
             detail: "the camera delivered no encoded image".into(),
         };
         let color = decode_color(&c.encoded.ok_or(bad("colour frame"))?.bytes)?;
-        let mut depth = decode_depth(&d.encoded.ok_or(bad("depth frame"))?.bytes, self.settings.depth_scale_m)?;
+        let mut depth =
+            decode_depth(&d.encoded.ok_or(bad("depth frame"))?.bytes, self.settings.depth_scale_m)?;
         let k = &self.settings.color_intrinsics;
         if (color.width, color.height) != (k.width, k.height) {
             return Err(VisionError::SizeMismatch {
@@ -183,7 +184,8 @@ impl CameraPair {
                 expected_height: color.height,
             });
         }
-        let frame = RgbdFrame { t: TimeNs(d.t.0), sequence: self.sequence, color, depth, intrinsics: k.clone() };
+        let frame =
+            RgbdFrame { t: TimeNs(d.t.0), sequence: self.sequence, color, depth, intrinsics: k.clone() };
         self.sequence += 1;
         self.counts.pairs += 1;
         Ok(frame)

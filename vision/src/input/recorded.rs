@@ -73,7 +73,11 @@ pub struct RecordedRgbd {
 
 impl RecordedRgbd {
     /// Replays the session at `path`, starting now on `clock`.
-    pub fn open_session(path: &Path, clock: Arc<dyn Clock>, options: &ReplayOptions) -> Result<RecordedRgbd, VisionError> {
+    pub fn open_session(
+        path: &Path,
+        clock: Arc<dyn Clock>,
+        options: &ReplayOptions,
+    ) -> Result<RecordedRgbd, VisionError> {
         let bad = |detail: &str| VisionError::BadSession { path: path.to_path_buf(), detail: detail.into() };
         let read = ReadOptions::default();
         let color_intrinsics = match &options.color_intrinsics {
@@ -98,11 +102,18 @@ impl RecordedRgbd {
 
     /// Replays the `NNNNNN-color.png` and `NNNNNN-depth.png` files of `dir`
     /// at `options.directory_fps`, starting now on `clock`.
-    pub fn open_directory(dir: &Path, clock: Arc<dyn Clock>, options: &ReplayOptions) -> Result<RecordedRgbd, VisionError> {
+    pub fn open_directory(
+        dir: &Path,
+        clock: Arc<dyn Clock>,
+        options: &ReplayOptions,
+    ) -> Result<RecordedRgbd, VisionError> {
         let bad = |detail: String| VisionError::BadFile { path: dir.to_path_buf(), detail };
-        let color_intrinsics =
-            options.color_intrinsics.clone().ok_or_else(|| bad("a directory needs colour intrinsics".into()))?;
-        let entries = std::fs::read_dir(dir).map_err(|source| VisionError::Io { path: dir.to_path_buf(), source })?;
+        let color_intrinsics = options
+            .color_intrinsics
+            .clone()
+            .ok_or_else(|| bad("a directory needs colour intrinsics".into()))?;
+        let entries =
+            std::fs::read_dir(dir).map_err(|source| VisionError::Io { path: dir.to_path_buf(), source })?;
         let mut stems: Vec<String> = entries
             .filter_map(|e| e.ok()?.file_name().to_str()?.strip_suffix("-color.png").map(str::to_string))
             .collect();
@@ -115,7 +126,9 @@ impl RecordedRgbd {
             let listed: Vec<(TimeNs, PathBuf)> = stems
                 .iter()
                 .enumerate()
-                .map(|(k, stem)| (TimeNs((k as f64 * period_ns).round() as u64), dir.join(format!("{stem}-{suffix}"))))
+                .map(|(k, stem)| {
+                    (TimeNs((k as f64 * period_ns).round() as u64), dir.join(format!("{stem}-{suffix}")))
+                })
                 .collect();
             Box::new(listed.into_iter().map(move |(t, path)| {
                 let bytes = std::fs::read(&path).map_err(|source| VisionError::Io { path, source })?;
@@ -123,7 +136,14 @@ impl RecordedRgbd {
             }))
         };
         let name = dir.display().to_string();
-        Self::start(&name, files("color.png", "png"), files("depth.png", "png"), color_intrinsics, clock, options)
+        Self::start(
+            &name,
+            files("color.png", "png"),
+            files("depth.png", "png"),
+            color_intrinsics,
+            clock,
+            options,
+        )
     }
 
     fn start(
@@ -136,10 +156,10 @@ impl RecordedRgbd {
     ) -> Result<RecordedRgbd, VisionError> {
         let first_color = colors.next().transpose()?;
         let first_depth = depths.next().transpose()?;
-        let first_t = first_depth.as_ref().map(|(t, _)| *t).ok_or_else(|| VisionError::BadFile {
-            path: name.into(),
-            detail: "no depth frames".into(),
-        })?;
+        let first_t = first_depth
+            .as_ref()
+            .map(|(t, _)| *t)
+            .ok_or_else(|| VisionError::BadFile { path: name.into(), detail: "no depth frames".into() })?;
         let offset_ns = i128::from(clock.now().0) - i128::from(first_t.0);
         let ended = Arc::new(AtomicBool::new(false));
         let depth_intrinsics = options.depth_intrinsics.clone().unwrap_or_else(|| color_intrinsics.clone());
@@ -156,7 +176,13 @@ impl RecordedRgbd {
             counts: Arc::default(),
         };
         Ok(RecordedRgbd {
-            color: camera(format!("{name} (colour)"), first_color, colors, color_intrinsics, options.color_delay_ns),
+            color: camera(
+                format!("{name} (colour)"),
+                first_color,
+                colors,
+                color_intrinsics,
+                options.color_delay_ns,
+            ),
             depth: camera(format!("{name} (depth)"), first_depth, depths, depth_intrinsics, 0),
             ended,
             offset_ns,
@@ -174,8 +200,10 @@ fn session_stream(
     let path = path.to_path_buf();
     Ok(Box::new(reader.map(move |m| {
         let m = m?;
-        let image = decode(&m.data)
-            .map_err(|detail| VisionError::BadSession { path: path.clone(), detail: format!("{topic}: {detail}") })?;
+        let image = decode(&m.data).map_err(|detail| VisionError::BadSession {
+            path: path.clone(),
+            detail: format!("{topic}: {detail}"),
+        })?;
         Ok((m.log_time, image))
     })))
 }
@@ -219,7 +247,9 @@ impl Camera for RecordedCamera {
             if self.first.is_none() {
                 match self.rest.next() {
                     Some(Ok(f)) => self.first = Some(f),
-                    Some(Err(e)) => return Err(DeviceError::new(ErrorKind::Other, &self.device, e.to_string())),
+                    Some(Err(e)) => {
+                        return Err(DeviceError::new(ErrorKind::Other, &self.device, e.to_string()));
+                    }
                     None => {
                         self.ended.store(true, Ordering::SeqCst);
                         break;
@@ -254,4 +284,3 @@ impl Camera for RecordedCamera {
         &self.device
     }
 }
-

@@ -21,7 +21,8 @@ pub struct RecordedTruth {
 impl RecordedTruth {
     /// Opens the truth channels of `path` (a session without them gives no truth).
     pub fn open(path: &Path) -> Result<RecordedTruth, VisionError> {
-        let reader = MessageReader::open(path, &[RgbdMask::TOPIC, ObjectTruth::TOPIC], ReadOptions::default())?;
+        let reader =
+            MessageReader::open(path, &[RgbdMask::TOPIC, ObjectTruth::TOPIC], ReadOptions::default())?;
         Ok(RecordedTruth { path: path.to_path_buf(), reader: reader.peekable() })
     }
 

@@ -58,7 +58,8 @@ pub fn register_depth_to_color(
     let mut rays = Vec::with_capacity(corners_per_row * (depth.height as usize + 1));
     for j in 0..=depth.height {
         for i in 0..=depth.width {
-            let ray = Vector3::new((f64::from(i) - 0.5 - k.cx) / k.fx, (f64::from(j) - 0.5 - k.cy) / k.fy, 1.0);
+            let ray =
+                Vector3::new((f64::from(i) - 0.5 - k.cx) / k.fx, (f64::from(j) - 0.5 - k.cy) / k.fy, 1.0);
             let turned = rotation * ray;
             rays.push([turned.x, turned.y, turned.z]);
         }

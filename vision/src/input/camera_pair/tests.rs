@@ -48,8 +48,13 @@ fn encoded(ext: &str, mat: &Mat) -> EncodedImage {
 
 /// A colour frame at `t_ms` whose blue channel is `tag`.
 fn color(t_ms: u64, tag: u8, w: i32, h: i32) -> Frame {
-    let rgb = Mat::new_rows_cols_with_default(h, w, opencv::core::CV_8UC3, Scalar::new(f64::from(tag), 20.0, 30.0, 0.0))
-        .unwrap();
+    let rgb = Mat::new_rows_cols_with_default(
+        h,
+        w,
+        opencv::core::CV_8UC3,
+        Scalar::new(f64::from(tag), 20.0, 30.0, 0.0),
+    )
+    .unwrap();
     Frame { t: TimeNs(t_ms * 1_000_000), sequence: t_ms, pixels: None, encoded: Some(encoded(".png", &rgb)) }
 }
 
@@ -87,7 +92,13 @@ fn each_depth_frame_pairs_with_the_closest_colour_frame() {
     // Depth at 34 ms: the colour frame at 36 ms is closer than the one at
     // 30 ms, though both are within the tolerance. Depth at 100 ms has no
     // colour frame within 16 ms (80 and 120 ms): unpaired.
-    let colors = vec![color(0, 1, 8, 6), color(30, 2, 8, 6), color(36, 3, 8, 6), color(80, 4, 8, 6), color(120, 5, 8, 6)];
+    let colors = vec![
+        color(0, 1, 8, 6),
+        color(30, 2, 8, 6),
+        color(36, 3, 8, 6),
+        color(80, 4, 8, 6),
+        color(120, 5, 8, 6),
+    ];
     let depths = vec![depth(34, 750, 8, 6), depth(100, 800, 8, 6), depth(119, 900, 8, 6)];
     let mut cameras = pair(colors, depths, settings(k, 16));
     // One pair at a time: poll between them by giving the scripted cameras
@@ -99,13 +110,21 @@ fn each_depth_frame_pairs_with_the_closest_colour_frame() {
     assert_eq!(newest.frame.depth.depth_m(0, 0), Some(0.9));
     assert_eq!(newest.frame.sequence, 0);
     let counts = cameras.counts();
-    assert_eq!(counts, PairCounts { pairs: 1, unpaired_color: 3, unpaired_depth: 1, skipped_pairs: 1 }, "{counts:?}");
+    assert_eq!(
+        counts,
+        PairCounts { pairs: 1, unpaired_color: 3, unpaired_depth: 1, skipped_pairs: 1 },
+        "{counts:?}"
+    );
 }
 
 #[test]
 fn pairs_come_in_order_when_the_reader_keeps_up() {
     let k = intrinsics(8, 6, 10.0);
-    let mut cameras = pair(vec![color(0, 1, 8, 6), color(30, 2, 8, 6), color(36, 3, 8, 6)], vec![depth(34, 750, 8, 6)], settings(k, 16));
+    let mut cameras = pair(
+        vec![color(0, 1, 8, 6), color(30, 2, 8, 6), color(36, 3, 8, 6)],
+        vec![depth(34, 750, 8, 6)],
+        settings(k, 16),
+    );
     let first = cameras.next_frame().unwrap().unwrap();
     assert_eq!((first.frame.t, first.frame.color.data[2]), (TimeNs(34_000_000), 3));
     assert_eq!(&first.frame.color.data[..3], &[30, 20, 3], "BGR scalar decoded to RGB");
@@ -139,7 +158,8 @@ fn depth_is_registered_to_the_colour_camera_with_the_extrinsics() {
     assert_eq!(frame.depth, expected);
     assert_eq!(frame.intrinsics, color_k);
     // Without registration the sizes differ: an error, not a wrong frame.
-    let mut unregistered = pair(vec![color(10, 1, 16, 12)], vec![depth_png(10, &raw, 12)], super::tests::settings(color_k, 16));
+    let mut unregistered =
+        pair(vec![color(10, 1, 16, 12)], vec![depth_png(10, &raw, 12)], super::tests::settings(color_k, 16));
     assert!(matches!(unregistered.next_frame(), Err(VisionError::SizeMismatch { .. })));
 }
 
@@ -147,7 +167,8 @@ fn depth_is_registered_to_the_colour_camera_with_the_extrinsics() {
 fn a_replay_ends_and_a_stalled_camera_times_out() {
     let k = intrinsics(8, 6, 10.0);
     let ended = Arc::new(AtomicBool::new(true));
-    let mut replay = pair(vec![color(0, 1, 8, 6)], vec![depth(0, 750, 8, 6)], settings(k.clone(), 16)).with_end(ended);
+    let mut replay =
+        pair(vec![color(0, 1, 8, 6)], vec![depth(0, 750, 8, 6)], settings(k.clone(), 16)).with_end(ended);
     assert!(replay.next_frame().unwrap().is_some(), "what was delivered before the end");
     assert!(replay.next_frame().unwrap().is_none());
     let mut stalled = pair(vec![color(0, 1, 8, 6)], vec![], settings(k, 16));
