@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion};
-use slidetrack_core::{CameraIntrinsics, Clock, parse_toml};
+use slidetrack_core::{Clock, parse_toml};
 use slidetrack_drivers::rgbd_config::{DepthToColor, RecordedRgbdConfig, RgbdCameraConfig};
 use slidetrack_vision::input::{CameraPair, DepthRegistration, PairSettings, RecordedRgbd, ReplayOptions};
 
@@ -146,7 +146,7 @@ fn open_v4l2(
     use slidetrack_experiment::rig::v4l2_intrinsics;
     let node = |n: &slidetrack_drivers::config::V4l2CameraConfig,
                 field: &str|
-     -> Result<(V4l2Camera, CameraIntrinsics)> {
+     -> Result<(V4l2Camera, slidetrack_core::CameraIntrinsics)> {
         let mut n = n.clone();
         n.calibration = n.calibration.map(|c| resolve(rig_dir, &c));
         let k = v4l2_intrinsics(&n).with_context(|| format!("{field}: {}", n.device))?;
