@@ -161,4 +161,23 @@ mod tests {
         let e = format!("{:#}", RigConfig::load(Some(&dir.path().join("none.toml"))).unwrap_err());
         assert!(e.contains("none.toml"), "{e}");
     }
+
+    #[test]
+    fn the_rgbd_examples_are_valid_rig_configs_that_round_trip() {
+        use slidetrack_drivers::rgbd_config::RgbdCameraConfig;
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/examples/rgbd-rig.toml");
+        let cfg = RigConfig::load(Some(Path::new(path))).unwrap();
+        let Some(RgbdCameraConfig::V4l2(camera)) = &cfg.rgbd else { panic!("a v4l2 [rgbd] table") };
+        assert_eq!(camera.depth.pixel_format, slidetrack_drivers::config::V4l2PixelFormat::Z16);
+        assert!(camera.depth_to_color.is_some());
+        let back: RigConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
+        assert_eq!(back, cfg);
+        let readme = include_str!("../../README.md");
+        let section = readme.find("### Vision on a real RGB-D camera").expect("the RGB-D section");
+        let start = section + readme[section..].find("```toml\n").expect("a toml block") + 8;
+        let end = start + readme[start..].find("```").expect("closed block");
+        let cfg: RigConfig = toml::from_str(&readme[start..end]).unwrap();
+        cfg.validate().unwrap();
+        assert!(cfg.rgbd.is_some());
+    }
 }
