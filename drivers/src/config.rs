@@ -415,6 +415,9 @@ impl HwRigConfig {
             check("camera.width", f64::from(v.width), v.width > 0 && v.width <= 65535, "1..=65535 px")?;
             check("camera.height", f64::from(v.height), v.height > 0 && v.height <= 65535, "1..=65535 px")?;
             check("camera.buffers", f64::from(v.buffers), (2..=32).contains(&v.buffers), "2..=32")?;
+            check("camera.timeout_ms", v.timeout_ms as f64, v.timeout_ms > 0, "> 0 ms")?;
+            let startup = v.startup_timeout_ms;
+            check("camera.startup_timeout_ms", startup as f64, startup > 0, "> 0 ms")?;
             let q = f64::from(v.jpeg_quality);
             check("camera.jpeg_quality", q, (1..=100).contains(&v.jpeg_quality), "1..=100")?;
             match (&v.calibration, &v.intrinsics) {
