@@ -95,6 +95,12 @@ pub enum VisionError {
     /// A filter refused its inputs.
     #[error("filter: {0}")]
     Estimator(#[from] EstimatorError),
+    /// Marker detection or its pose failed.
+    #[error("ArUco: {0}")]
+    Marker(#[from] slidetrack_calibration::MarkerError),
+    /// The external measurement source refused a message or its socket failed.
+    #[error("external source: {0}")]
+    External(#[from] crate::sources::external::ExternalError),
     /// A device failed.
     #[error(transparent)]
     Device(#[from] slidetrack_core::DeviceError),
