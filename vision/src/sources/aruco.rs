@@ -272,4 +272,12 @@ impl MeasurementSource for ArucoSource {
         }
         Ok(out)
     }
+
+    fn summary(&self) -> Option<String> {
+        let s = self.stats;
+        Some(format!(
+            "aruco: {} frames searched, {} poses, {} without the marker, {} rejected for reprojection error",
+            s.frames_searched, s.poses, s.frames_without_marker, s.rejected
+        ))
+    }
 }

@@ -98,6 +98,11 @@ pub trait MeasurementSource: Send {
     ) -> Result<Arrivals, VisionError> {
         self.on_frame(frame.t, truth)
     }
+
+    /// A one-line account of what the source did (counts), for reports.
+    fn summary(&self) -> Option<String> {
+        None
+    }
 }
 
 /// The ground truth of every frame, immediately: masks, poses, or both.

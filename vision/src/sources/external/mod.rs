@@ -284,6 +284,14 @@ impl MeasurementSource for ExternalSource {
         }
         Ok(out)
     }
+
+    fn summary(&self) -> Option<String> {
+        let s = self.stats;
+        Some(format!(
+            "external: {} connections, {} poses, {} masks, {} refused, {} for unknown frames, {} late",
+            s.connections, s.poses, s.masks, s.refused, s.unknown_frames, s.late
+        ))
+    }
 }
 
 impl Drop for ExternalSource {
