@@ -281,3 +281,7 @@ impl MeasurementSource for ArucoSource {
         ))
     }
 }
+
+#[cfg(test)]
+#[path = "aruco_tests.rs"]
+mod tests;
