@@ -117,6 +117,9 @@ impl ArucoConfig {
     }
 }
 
+/// A frame's `camera_from_object` and, when masks are rendered, its mask.
+type Measured = (Isometry3<f64>, Option<Mask>);
+
 /// What the source did so far.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ArucoStats {
@@ -214,7 +217,7 @@ impl ArucoSource {
     }
 
     /// Detects the marker in `frame`: the object's pose and mask, if seen.
-    fn measure(&mut self, frame: &RgbdFrame) -> Result<Option<(Isometry3<f64>, Option<Mask>)>, VisionError> {
+    fn measure(&mut self, frame: &RgbdFrame) -> Result<Option<Measured>, VisionError> {
         let detections = self.detector.detect(&frame.color)?;
         let Some(detection) = detections.iter().find(|d| d.id == self.config.marker_id) else {
             self.stats.frames_without_marker += 1;
@@ -249,7 +252,7 @@ impl MeasurementSource for ArucoSource {
     ) -> Result<Arrivals, VisionError> {
         let index = self.frame_index;
         self.frame_index += 1;
-        if index % u64::from(self.config.every_nth_frame) == 0 {
+        if index.is_multiple_of(u64::from(self.config.every_nth_frame)) {
             self.stats.frames_searched += 1;
             let started = Instant::now();
             if let Some((pose, mask)) = self.measure(frame)? {

@@ -117,7 +117,8 @@ fn frames_without_the_marker_give_nothing_and_results_wait_for_their_arrival() {
 fn bad_configurations_are_refused_with_the_field() {
     let s = scene();
     let intrinsics = s.scene.config().intrinsics.clone();
-    let cases: [(&str, fn(&mut ArucoConfig)); 4] = [
+    type Spoil = fn(&mut ArucoConfig);
+    let cases: [(&str, Spoil); 4] = [
         ("marker_size_m", |c| c.marker_size_m = 0.0),
         ("every_nth_frame", |c| c.every_nth_frame = 0),
         ("marker_id", |c| c.marker_id = 50),

@@ -39,10 +39,10 @@ impl Writer {
         let Some(stream) = guard.as_mut() else { return };
         let Ok(mut line) = serde_json::to_vec(message) else { return };
         line.push(b'\n');
-        if stream.write_all(&line).is_err() {
-            if let Some(s) = guard.take() {
-                let _ = s.shutdown(std::net::Shutdown::Both);
-            }
+        if stream.write_all(&line).is_err()
+            && let Some(s) = guard.take()
+        {
+            let _ = s.shutdown(std::net::Shutdown::Both);
         }
     }
 
