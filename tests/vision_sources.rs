@@ -17,7 +17,7 @@ use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
 /// marker printed on the face seen first (seed 2) stays in view.
 fn marker_session(dir: &Path) -> (String, String) {
     let session = dir.join("marker.mcap");
-    let s = session.to_str().unwrap().to_string();
+    let s = session.to_str().expect("fixture step").to_string();
     let out = ok(&[
         "-q",
         "vision",
@@ -40,11 +40,11 @@ fn marker_session(dir: &Path) -> (String, String) {
     assert!(out.contains("90 frames"), "{out}");
     let config = dir.join("marker.aruco.toml");
     assert!(config.exists(), "{out}");
-    (s, config.to_str().unwrap().to_string())
+    (s, config.to_str().expect("fixture step").to_string())
 }
 
 fn metrics(stdout: &str) -> Value {
-    let summary: Value = serde_json::from_str(stdout).unwrap();
+    let summary: Value = serde_json::from_str(stdout).expect("fixture step");
     assert_eq!(summary["frames"], 90, "{summary}");
     summary["metrics"].clone()
 }
@@ -155,26 +155,28 @@ fn a_wrong_marker_offset_or_a_missing_config_is_refused_or_shows() {
 /// Answers each announced frame with the true pose of that frame; also
 /// sends a line of garbage and a result for a frame never announced.
 fn fake_network(addr: &str, truth: &FastSequence) -> usize {
-    let stream = TcpStream::connect(addr).unwrap();
-    let mut writer = stream.try_clone().unwrap();
+    let stream = TcpStream::connect(addr).expect("fixture step");
+    let mut writer = stream.try_clone().expect("fixture step");
     let mut lines = BufReader::new(stream).lines();
-    let hello: Value = serde_json::from_str(&lines.next().unwrap().unwrap()).unwrap();
+    let hello: Value = serde_json::from_str(&lines.next().expect("fixture step").expect("fixture step"))
+        .expect("fixture step");
     assert_eq!(hello["type"], "hello");
     assert_eq!(hello["version"], 1);
     writeln!(writer, "{}", json!({"type": "hello", "protocol": "slidetrack-vision-source", "version": 1}))
-        .unwrap();
+        .expect("fixture step");
     let mut answered = 0;
     for line in lines {
         let Ok(line) = line else { break };
-        let message: Value = serde_json::from_str(&line).unwrap();
+        let message: Value = serde_json::from_str(&line).expect("fixture step");
         if message["type"] != "frame" {
             continue;
         }
-        let t_ns = message["frame_t_ns"].as_u64().unwrap();
+        let t_ns = message["frame_t_ns"].as_u64().expect("fixture step");
         let k = (t_ns as f64 * 30e-9).round() as usize;
         if k == 10 {
-            writeln!(writer, "{{\"type\": \"result\", \"frame_t_ns\": ").unwrap();
-            writeln!(writer, "{}", json!({"type": "result", "frame_t_ns": 12_345, "pose": null})).unwrap();
+            writeln!(writer, "{{\"type\": \"result\", \"frame_t_ns\": ").expect("fixture step");
+            writeln!(writer, "{}", json!({"type": "result", "frame_t_ns": 12_345, "pose": null}))
+                .expect("fixture step");
         }
         let pose = truth.truth(k).camera_from_object;
         let q = pose.rotation.coords;
@@ -184,7 +186,7 @@ fn fake_network(addr: &str, truth: &FastSequence) -> usize {
             "pose": {"translation_m": [pose.translation.x, pose.translation.y, pose.translation.z],
                      "rotation_xyzw": [q.x, q.y, q.z, q.w]},
         });
-        writeln!(writer, "{result}").unwrap();
+        writeln!(writer, "{result}").expect("fixture step");
         answered += 1;
     }
     answered
