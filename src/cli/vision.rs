@@ -157,6 +157,10 @@ pub struct ExternalArgs {
     /// its result (recorded inputs); 0: never wait (live cameras).
     #[arg(long, default_value_t = 1000)]
     pub external_wait_ms: u64,
+    /// Before the first frame, wait up to this long (ms) for a client to
+    /// connect; 0: start at once.
+    #[arg(long, default_value_t = 0)]
+    pub external_wait_client_ms: u64,
     /// Results older than this (ms) when they arrive are dropped.
     #[arg(long, default_value_t = 1000)]
     pub external_max_age_ms: u64,

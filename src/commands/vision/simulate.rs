@@ -112,7 +112,7 @@ fn print_marker(sequence: &mut FastSequence, spec: &str, args: &SimulateArgs) ->
     let [x, y, z] = marker_from_object.translation_m;
     let [qx, qy, qz, qw] = marker_from_object.rotation_xyzw;
     let toml = format!(
-        "dictionary = \"{dictionary}\"\nmarker_id = {id}\nmarker_size_m = {}\nmask_depth_tolerance_m = 0.03\n\n[marker_from_object]\ntranslation_m = [{x}, {y}, {z}]\nrotation_xyzw = [{qx}, {qy}, {qz}, {qw}]\n",
+        "dictionary = \"{dictionary}\"\nmarker_id = {id}\nmarker_size_m = {}\nmask_depth_tolerance_m = 0.03\n# Results at their frame's time: replays are repeatable (\"measured\" adds the detection time).\ndelay = \"none\"\n\n[marker_from_object]\ntranslation_m = [{x}, {y}, {z}]\nrotation_xyzw = [{qx}, {qy}, {qz}, {qw}]\n",
         args.marker_size
     );
     Ok((args.out.with_extension("aruco.toml"), toml))

@@ -99,6 +99,8 @@ fn external_config(args: &crate::cli::ExternalArgs) -> ExternalConfig {
     ExternalConfig {
         listen: args.listen.clone(),
         wait_for_result: (args.external_wait_ms > 0).then(|| Duration::from_millis(args.external_wait_ms)),
+        wait_for_client: (args.external_wait_client_ms > 0)
+            .then(|| Duration::from_millis(args.external_wait_client_ms)),
         max_age_ns: args.external_max_age_ms.saturating_mul(1_000_000),
         send_images: args.external_send_images,
     }

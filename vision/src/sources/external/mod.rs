@@ -36,6 +36,9 @@ pub struct ExternalConfig {
     /// result for that frame (recorded inputs: lockstep with the client);
     /// `None`: never wait (live cameras).
     pub wait_for_result: Option<Duration>,
+    /// Before the first frame, wait up to this long for a client to connect
+    /// (recorded inputs whose first frames should not go unanswered).
+    pub wait_for_client: Option<Duration>,
     /// Results for frames older than this (ns) at the frame they arrive by are dropped.
     pub max_age_ns: u64,
     /// Send each frame's colour (JPEG) and depth (16-bit PNG) with its time.
@@ -47,6 +50,7 @@ impl Default for ExternalConfig {
         ExternalConfig {
             listen: "127.0.0.1:7450".into(),
             wait_for_result: None,
+            wait_for_client: None,
             max_age_ns: 1_000_000_000,
             send_images: false,
         }
@@ -139,6 +143,20 @@ impl ExternalSource {
     /// The latest refused message, in words.
     pub fn last_error(&self) -> Option<&str> {
         self.last_error.as_deref()
+    }
+
+    /// Waits up to `wait` for a client's handshake.
+    fn wait_for_client(&mut self, wait: Duration, t: TimeNs, out: &mut Arrivals) {
+        let deadline = Instant::now() + wait;
+        while !self.connected {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.events.recv_timeout(left) {
+                Ok(event) => {
+                    self.handle(event, t, out);
+                }
+                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => return,
+            }
+        }
     }
 
     /// Tells the client about `frame`.
@@ -263,8 +281,13 @@ impl MeasurementSource for ExternalSource {
         frame: &RgbdFrame,
         _truth: Option<FrameTruth<'_>>,
     ) -> Result<Arrivals, VisionError> {
-        self.announce(frame);
         let mut out = Arrivals::default();
+        if self.announced.is_empty()
+            && let Some(wait) = self.config.wait_for_client
+        {
+            self.wait_for_client(wait, frame.t, &mut out);
+        }
+        self.announce(frame);
         let mut answered = false;
         while let Ok(event) = self.events.try_recv() {
             answered |= self.handle(event, frame.t, &mut out) == Some(frame.t.0);
