@@ -44,9 +44,14 @@ fn config(object_from_marker: &Isometry3<f64>) -> ArucoConfig {
 }
 
 fn frame(s: &Scene, k: u64) -> RgbdFrame {
+    frame_every(s, k, 33_333_333)
+}
+
+/// Frame `k` of frames `period_ns` apart.
+fn frame_every(s: &Scene, k: u64, period_ns: u64) -> RgbdFrame {
     let r = s.scene.render(&s.camera_from_object, k);
     RgbdFrame {
-        t: TimeNs(k * 33_333_333),
+        t: TimeNs(k * period_ns),
         sequence: k,
         color: r.color,
         depth: r.depth,
@@ -97,7 +102,9 @@ fn frames_without_the_marker_give_nothing_and_results_wait_for_their_arrival() {
     c.delay = ArrivalDelay::Measured;
     c.every_nth_frame = 2;
     let mut source = ArucoSource::new(c, &model(), &intrinsics).unwrap();
-    // Frame 0 is searched; its result took time, so it arrives by frame 1.
+    // Frame 0 is searched; its result took time (well under the 1 s
+    // between these frames), so it arrives by frame 1.
+    let frame = |s: &Scene, k| frame_every(s, k, 1_000_000_000);
     assert!(source.on_rgbd_frame(&frame(&s, 0), None).unwrap().poses.is_empty());
     let got = source.on_rgbd_frame(&frame(&s, 1), None).unwrap();
     assert_eq!(got.poses.len(), 1);

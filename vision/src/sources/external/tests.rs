@@ -31,6 +31,7 @@ fn source(wait: Option<Duration>, max_age_ns: u64) -> ExternalSource {
     let config = ExternalConfig {
         listen: "127.0.0.1:0".into(),
         wait_for_result: wait,
+        wait_for_client: None,
         max_age_ns,
         send_images: false,
     };
