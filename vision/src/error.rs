@@ -8,6 +8,10 @@ use slidetrack_estimators::roft::RoftError;
 use slidetrack_session::SessionError;
 use thiserror::Error;
 
+mod external;
+
+pub use external::ExternalError;
+
 /// Errors of the vision crate.
 #[derive(Debug, Error)]
 #[non_exhaustive]
@@ -100,7 +104,7 @@ pub enum VisionError {
     Marker(#[from] slidetrack_calibration::MarkerError),
     /// The external measurement source refused a message or its socket failed.
     #[error("external source: {0}")]
-    External(#[from] crate::sources::external::ExternalError),
+    External(#[from] ExternalError),
     /// A device failed.
     #[error(transparent)]
     Device(#[from] slidetrack_core::DeviceError),
