@@ -261,6 +261,46 @@ mod tests {
         let Command::Vision(VisionArgs { command: VisionCommand::Eval(e) }) = cli.command else { panic!() };
         assert!(e.ablation && e.json);
         assert_eq!(e.objects, vec!["soup_can", "cracker_box"]);
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "vision",
+            "track",
+            "--tracker",
+            "roft",
+            "--input",
+            "s.mcap",
+            "--model",
+            "sim",
+            "--measurements",
+            "external",
+            "--listen",
+            "127.0.0.1:9000",
+            "--external-wait-ms",
+            "0",
+        ])
+        .unwrap();
+        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
+        assert_eq!(
+            (t.measurements, t.external.listen.as_str(), t.external.external_wait_ms),
+            (MeasurementsArg::External, "127.0.0.1:9000", 0)
+        );
+        let aruco = [
+            "slidetrack",
+            "vision",
+            "track",
+            "--tracker",
+            "roft",
+            "--input",
+            "s",
+            "--model",
+            "m",
+            "--measurements",
+            "aruco",
+        ];
+        assert!(Cli::try_parse_from(aruco).is_err(), "aruco without --aruco-config");
+        let cli = Cli::try_parse_from(aruco.iter().copied().chain(["--aruco-config", "a.toml"])).unwrap();
+        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
+        assert_eq!(t.aruco_config.as_deref(), Some(std::path::Path::new("a.toml")));
         assert!(
             Cli::try_parse_from([
                 "slidetrack",
