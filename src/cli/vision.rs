@@ -261,6 +261,24 @@ mod tests {
         let Command::Vision(VisionArgs { command: VisionCommand::Eval(e) }) = cli.command else { panic!() };
         assert!(e.ablation && e.json);
         assert_eq!(e.objects, vec!["soup_can", "cracker_box"]);
+        assert!(
+            Cli::try_parse_from([
+                "slidetrack",
+                "vision",
+                "track",
+                "--tracker",
+                "other",
+                "--input",
+                "x",
+                "--model",
+                "m"
+            ])
+            .is_err()
+        );
+    }
+
+    #[test]
+    fn the_source_options_parse() {
         let cli = Cli::try_parse_from([
             "slidetrack",
             "vision",
@@ -301,19 +319,5 @@ mod tests {
         let cli = Cli::try_parse_from(aruco.iter().copied().chain(["--aruco-config", "a.toml"])).unwrap();
         let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
         assert_eq!(t.aruco_config.as_deref(), Some(std::path::Path::new("a.toml")));
-        assert!(
-            Cli::try_parse_from([
-                "slidetrack",
-                "vision",
-                "track",
-                "--tracker",
-                "other",
-                "--input",
-                "x",
-                "--model",
-                "m"
-            ])
-            .is_err()
-        );
     }
 }

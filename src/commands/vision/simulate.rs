@@ -105,9 +105,19 @@ fn print_marker(sequence: &mut FastSequence, spec: &str, args: &SimulateArgs) ->
         "--marker-size must be a positive size in metres"
     );
     let pattern = slidetrack_calibration::marker_pattern(dictionary, id)?;
-    let decal = sequence.print_marker(pattern, args.marker_size).with_context(|| {
+    let decal = sequence.print_marker(pattern, args.marker_size).cloned().with_context(|| {
         format!("--marker-size {} m: no face of the object is wide enough", args.marker_size)
     })?;
+    let camera_from_marker = sequence.truth(0).camera_from_object * decal.object_from_marker;
+    let towards_camera = -camera_from_marker.translation.vector.normalize();
+    let facing = (camera_from_marker.rotation * nalgebra::Vector3::z()).dot(&towards_camera);
+    if facing < 0.3 {
+        eprintln!(
+            "warning: the marker's face is seen at {:.0} degrees in the first frame and will rarely be detected; \
+             try another --seed or a smaller --marker-size",
+            facing.clamp(-1.0, 1.0).acos().to_degrees()
+        );
+    }
     let marker_from_object = PoseConfig::of(&decal.object_from_marker.inverse());
     let [x, y, z] = marker_from_object.translation_m;
     let [qx, qy, qz, qw] = marker_from_object.rotation_xyzw;

@@ -258,3 +258,32 @@ fn png_and_rle_masks_decode_to_the_same_pixels() {
         Err(ExternalError::BadMask { frame_t_ns: 7, .. })
     ));
 }
+
+#[test]
+fn frames_carry_their_images_when_asked() {
+    let config = ExternalConfig {
+        listen: "127.0.0.1:0".into(),
+        wait_for_result: None,
+        wait_for_client: Some(Duration::from_secs(5)),
+        max_age_ns: 1_000_000_000,
+        send_images: true,
+    };
+    let mut src = ExternalSource::listen(config, &intrinsics()).unwrap();
+    let mut client = Client::connect(&src, 1);
+    let mut f = frame(1_000);
+    f.depth.data[9] = 1234;
+    // The source waits for the client before its first frame: that one is announced.
+    src.on_rgbd_frame(&f, None).unwrap();
+    let m = client.next_of("frame");
+    assert_eq!(m["frame_t_ns"], 1_000);
+    let b64 = |key: &str| base64::engine::general_purpose::STANDARD.decode(m[key].as_str().unwrap()).unwrap();
+    let jpeg = b64("color_jpeg");
+    assert_eq!(&jpeg[..2], &[0xff, 0xd8], "a JPEG");
+    let png_bytes = b64("depth_png");
+    let mut reader = png::Decoder::new(std::io::Cursor::new(png_bytes)).read_info().unwrap();
+    let mut buffer = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buffer).unwrap();
+    assert_eq!((info.width, info.height, info.bit_depth), (W, H, png::BitDepth::Sixteen));
+    assert_eq!(u16::from_be_bytes([buffer[18], buffer[19]]), 1234, "millimetres, big-endian");
+    assert_eq!(src.stats().connections, 1);
+}
