@@ -138,7 +138,8 @@ pub struct ArucoStats {
 /// at those poses.
 ///
 /// Detection runs in the caller's thread on each `every_nth_frame`-th frame
-/// (about 5-15 ms at 640x480 on this project's machines). Each result refers
+/// (detection and mask rendering: about 17 ms a frame at 640x480 on this
+/// project's 2-core machine under load). Each result refers
 /// to its frame and arrives, with [`ArrivalDelay::Measured`], that much
 /// later: it is handed over by the first frame at or after its arrival.
 /// Frames without the marker produce nothing ([`ArucoStats`] counts them).
