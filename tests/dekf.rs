@@ -9,34 +9,13 @@ use std::process::Command;
 
 use common::{collect, fails, ok, python, tempdir, trained};
 
-#[test]
-fn replay_matches_the_reference_implementation_of_the_model_format() {
-    let dir = tempdir();
-    let (sessions, model) = trained(dir.path());
-    let out = dir.path().join("replay.mcap");
-    let m = model.to_str().unwrap();
-    ok(&["replay", sessions[2].to_str().unwrap(), "--model", m, "--out", out.to_str().unwrap()]);
-    let info: serde_json::Value =
-        serde_json::from_str(&ok(&["info", out.to_str().unwrap(), "--json"])).unwrap();
-    let count = |topic: &str| {
-        info["channels"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|c| c["topic"] == topic)
-            .map(|c| c["messages"].as_u64().unwrap())
-    };
-    let steps = count("/estimate/dekf").expect("estimates");
-    assert_eq!(count("/tactile/derivative"), Some(steps));
-    // One dEKF step per 3 (the decimation) zeroed scans of the replay.
-    let zeroed = count("/tactile/zeroed").expect("zeroed scans");
-    assert!(zeroed / 3 <= steps && steps <= zeroed / 3 + 1, "{steps} steps for {zeroed} zeroed scans");
-    // 12 s of cycles plus setup at 100 Hz, decimated by 3.
-    assert!((500..800).contains(&steps), "{steps} dEKF steps");
-
+/// Runs the NumPy implementation of docs/model-format.md on `model` and the
+/// `replay` output `out`, and checks it reproduces the replay's `steps`
+/// estimates to 1e-4; returns its JSON.
+fn check_against_the_reference(model: &str, out: &Path, steps: u64) -> serde_json::Value {
     let py = Command::new(python())
         .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/dekf_reference.py"))
-        .args([m, out.to_str().unwrap()])
+        .args([model, out.to_str().unwrap()])
         .output()
         .expect("python runs");
     let stderr = String::from_utf8_lossy(&py.stderr);
@@ -47,6 +26,125 @@ fn replay_matches_the_reference_implementation_of_the_model_format() {
         let d = r["max_relative_difference"][key].as_f64().unwrap();
         assert!(d < 1e-4, "{key}: relative difference {d}");
     }
+    r
+}
+
+/// The number of messages on `topic` in `file` (`slidetrack info`).
+fn message_count(file: &Path, topic: &str) -> Option<u64> {
+    let info: serde_json::Value =
+        serde_json::from_str(&ok(&["info", file.to_str().unwrap(), "--json"])).unwrap();
+    info["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["topic"] == topic)
+        .map(|c| c["messages"].as_u64().unwrap())
+}
+
+/// The `__metadata__` and tensor shapes of a safetensors file's header.
+fn safetensors_header(path: &Path) -> (serde_json::Map<String, serde_json::Value>, serde_json::Value) {
+    let bytes = std::fs::read(path).unwrap();
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    let mut header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+    let meta = header.as_object_mut().unwrap().remove("__metadata__").unwrap();
+    (meta.as_object().unwrap().clone(), header)
+}
+
+/// A model with two shared residual blocks, a width of 48 and tanh trains,
+/// says so in its file, replays (reproduced by the NumPy reference, which
+/// reads the architecture from the file) and evaluates.
+#[test]
+fn a_model_with_two_blocks_and_tanh_trains_replays_and_evaluates() {
+    let dir = tempdir();
+    let sessions: Vec<_> =
+        (0..3u64).map(|s| collect(dir.path(), "box", 40 + s, 8.0, &["--no-camera"])).collect();
+    let model = dir.path().join("tanh.safetensors");
+    let m = model.to_str().unwrap();
+    let (a, b) = (sessions[0].to_str().unwrap(), sessions[1].to_str().unwrap());
+    let summary: serde_json::Value = serde_json::from_str(&ok(&[
+        "-q",
+        "train",
+        a,
+        b,
+        "--truth",
+        "sim",
+        "--schedule",
+        "2:1,4:1",
+        "--threads",
+        "1",
+        "--blocks",
+        "2",
+        "--activation",
+        "tanh",
+        "--width",
+        "48",
+        "--json",
+        "--out",
+        m,
+    ]))
+    .unwrap();
+    assert_eq!(
+        summary["architecture"],
+        serde_json::json!({"width": 48, "residual_blocks": 2, "activation": "tanh"})
+    );
+    let (meta, tensors) = safetensors_header(&model);
+    let arch: serde_json::Value =
+        serde_json::from_str(meta["slidetrack.dekf.architecture"].as_str().unwrap()).unwrap();
+    assert_eq!(arch, summary["architecture"]);
+    assert_eq!(tensors["motion.shared.residual.1.fc2.weight"]["shape"], serde_json::json!([48, 48]));
+    assert!(tensors.get("motion.shared.residual.2.fc1.weight").is_none());
+    assert_eq!(tensors.as_object().unwrap().len(), 3 * 2 * (5 + 2 * 2) + 4);
+
+    let out = dir.path().join("replay.mcap");
+    ok(&["replay", sessions[2].to_str().unwrap(), "--model", m, "--out", out.to_str().unwrap()]);
+    let steps = message_count(&out, "/estimate/dekf").expect("estimates");
+    assert!(steps > 200, "{steps} dEKF steps");
+    let r = check_against_the_reference(m, &out, steps);
+    assert_eq!(r["architecture"]["activation"], "tanh");
+
+    let v: serde_json::Value = serde_json::from_str(&ok(&[
+        "eval",
+        "--model",
+        m,
+        "--truth",
+        "sim",
+        sessions[2].to_str().unwrap(),
+        "--json",
+    ]))
+    .unwrap();
+    for key in ["position_rmse_cm", "velocity_rmse_cmps", "baseline_position_rmse_cm"] {
+        assert!(v[key].as_f64().is_some_and(f64::is_finite), "{key} in {v}");
+    }
+    // A bad architecture is refused before any work.
+    let e = fails(&["train", a, "--truth", "sim", "--width", "0", "--out", m]);
+    assert!(e.contains("width 0"), "{e}");
+}
+
+#[test]
+fn replay_matches_the_reference_implementation_of_the_model_format() {
+    let dir = tempdir();
+    let (sessions, model) = trained(dir.path());
+    let out = dir.path().join("replay.mcap");
+    let m = model.to_str().unwrap();
+    ok(&["replay", sessions[2].to_str().unwrap(), "--model", m, "--out", out.to_str().unwrap()]);
+    // The default model is the thesis's network, and says so.
+    let (meta, tensors) = safetensors_header(&model);
+    let arch: serde_json::Value =
+        serde_json::from_str(meta["slidetrack.dekf.architecture"].as_str().unwrap()).unwrap();
+    assert_eq!(arch, serde_json::json!({"width": 64, "residual_blocks": 3, "activation": "relu"}));
+    assert_eq!(tensors.as_object().unwrap().len(), 3 * 22 + 4);
+    assert_eq!(tensors["feature.shared.residual.2.fc1.weight"]["shape"], serde_json::json!([64, 64]));
+    let count = |topic: &str| message_count(&out, topic);
+    let steps = count("/estimate/dekf").expect("estimates");
+    assert_eq!(count("/tactile/derivative"), Some(steps));
+    // One dEKF step per 3 (the decimation) zeroed scans of the replay.
+    let zeroed = count("/tactile/zeroed").expect("zeroed scans");
+    assert!(zeroed / 3 <= steps && steps <= zeroed / 3 + 1, "{steps} steps for {zeroed} zeroed scans");
+    // 12 s of cycles plus setup at 100 Hz, decimated by 3.
+    assert!((500..800).contains(&steps), "{steps} dEKF steps");
+
+    let r = check_against_the_reference(m, &out, steps);
+    assert_eq!(r["architecture"]["residual_blocks"], 3);
 }
 
 #[test]
@@ -222,7 +320,9 @@ fn study_quick_writes_the_thesis_tables_and_its_models_track() {
         let (v, v0) = (get("velocity_rmse_cmps"), get("baseline_velocity_rmse_cmps"));
         let tabled = cell(&tables, "Table 6.4", object, &format!("{pos} / all"));
         assert!((tabled - p).abs() < 1e-9, "{object}: table {tabled} cm, eval {p} cm");
-        eprintln!("{object}: xy {own:.3} cm; all-xy {p:.3} cm (baseline {p0:.3}), {v:.3} cm/s (baseline {v0:.3})");
+        eprintln!(
+            "{object}: xy {own:.3} cm; all-xy {p:.3} cm (baseline {p0:.3}), {v:.3} cm/s (baseline {v0:.3})"
+        );
         assert!(p < p0 / 3.0, "{object}: all-xy {p:.3} cm, zero-motion baseline {p0:.3} cm");
         assert!(v < 0.8 * v0, "{object}: all-xy {v:.3} cm/s, zero-velocity baseline {v0:.3} cm/s");
         assert!(own < 0.5 * p0, "{object}: xy {own:.3} cm, zero-motion baseline {p0:.3} cm");
@@ -255,8 +355,12 @@ fn both_protocols_share_sessions_without_replacing_each_others_ground_truth() {
     };
     let topics = |file: &std::path::Path| -> Vec<String> {
         let info = SessionInfo::read(file, ReadOptions::default()).unwrap();
-        let mut t: Vec<String> =
-            info.channels.iter().map(|c| c.topic.clone()).filter(|t| t.starts_with("/ground_truth/")).collect();
+        let mut t: Vec<String> = info
+            .channels
+            .iter()
+            .map(|c| c.topic.clone())
+            .filter(|t| t.starts_with("/ground_truth/"))
+            .collect();
         t.sort();
         t
     };
@@ -275,7 +379,11 @@ fn both_protocols_share_sessions_without_replacing_each_others_ground_truth() {
     assert_eq!(config["truth"], "/ground_truth/sliding");
     assert_eq!(config["position_shift_cm"], 20.0);
     assert_eq!(topics(&file).len(), 4, "{:?}", topics(&file));
-    assert_eq!(messages(&file, "/ground_truth/thesis/sliding"), thesis, "the thesis ground truth was replaced");
+    assert_eq!(
+        messages(&file, "/ground_truth/thesis/sliding"),
+        thesis,
+        "the thesis ground truth was replaced"
+    );
     // Other smoother parameters: the two ground truths differ.
     let default = messages(&file, "/ground_truth/sliding");
     assert_ne!(default, thesis);

@@ -3,11 +3,20 @@
 
 mod common;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use common::{fails, ok, tempdir};
 use serde_json::Value;
-use slidetrack_session::{ReadOptions, SessionInfo};
+use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
+use slidetrack_session::{PoseInFrame, ReadOptions, SessionInfo, read_json};
+use slidetrack_vision::input::read_meta;
+
+/// Bounds of ROFT on the simulated session: it reaches 8.8 cm, 29 degrees
+/// and an ADD-AUC of 38.7% (1.3 s after its first pose, the imitated
+/// network's poses 1.5 cm and 6 degrees off and its masks imperfect).
+const POSITION_RMSE_CM: f64 = 15.0;
+const ROTATION_RMSE_DEG: f64 = 45.0;
+const ADD_AUC_PERCENT: f64 = 20.0;
 
 fn rgbd(rel: &str) -> String {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/testdata/rgbd").join(rel);
@@ -60,7 +69,14 @@ fn a_simulated_session_is_tracked_by_roft_and_maskukf() {
     assert_eq!(summary["frames"], 45);
     // ROFT starts with the first pose, computed on frame 0 and arriving at frame 6.
     assert_eq!(summary["tracked"], 39);
-    assert!(summary["metrics"]["add_auc_percent"].as_f64().unwrap() > 0.0);
+    // ROFT from the delayed network's poses on a fast object: a tracker
+    // whose correction never moves it stays at the first (noisy) pose while
+    // the object moves tens of centimetres and degrees.
+    let m = &summary["metrics"];
+    println!("roft on the simulated session: {m}");
+    assert!(m["position_rmse_cm"].as_f64().unwrap() < POSITION_RMSE_CM, "{m}");
+    assert!(m["rotation_rmse_deg"].as_f64().unwrap() < ROTATION_RMSE_DEG, "{m}");
+    assert!(m["add_auc_percent"].as_f64().unwrap() > ADD_AUC_PERCENT, "{m}");
     let info = SessionInfo::read(&estimates, ReadOptions::default()).unwrap();
     for topic in ["/estimate/pose/roft", "/estimate/transform/roft", "/estimate/velocity/roft"] {
         assert_eq!(info.channel(topic).map(|c| c.message_count), Some(39), "{topic}");
@@ -86,10 +102,45 @@ fn a_simulated_session_is_tracked_by_roft_and_maskukf() {
     assert_eq!(summary["tracked"], 45);
 }
 
+/// The ten YCB-Video frames played forward and back (`0 1 .. 9 8 .. 0 1
+/// ..`) as `count` frames of a directory of links: the truth stays
+/// continuous and the objects move for longer. Returns the source frame of
+/// each linked frame.
+fn ping_pong_frames(dir: &Path, count: usize) -> Vec<usize> {
+    let source = PathBuf::from(rgbd("ycbv-0000/data/0000"));
+    let frames = 10;
+    let period = 2 * frames - 2;
+    let order: Vec<usize> = (0..count)
+        .map(|k| {
+            let phase = k % period;
+            if phase < frames { phase } else { period - phase }
+        })
+        .collect();
+    for (k, index) in order.iter().enumerate() {
+        for suffix in ["color.png", "depth.png", "label.png", "meta.mat"] {
+            std::os::unix::fs::symlink(
+                source.join(format!("{:06}-{suffix}", index + 1)),
+                dir.join(format!("{:06}-{suffix}", k + 1)),
+            )
+            .expect("a link in the temporary directory");
+        }
+    }
+    order
+}
+
+/// MaskUKF from the thesis's perturbed start (5 cm along each axis, 10
+/// degrees on each Euler angle: 8.7 cm and 19 degrees off the gelatin box)
+/// over 46 real frames: over the second half every estimate is within 1.5
+/// cm and 13 degrees (it reaches 0.6 cm and 6.7 degrees; staying at the
+/// start is 8.7-9.5 cm and 18.8-19.3 degrees off).
 #[test]
-fn maskukf_tracks_the_ycb_video_frames_from_their_labels() {
-    let dir = rgbd("ycbv-0000/data/0000");
-    let model = rgbd("ycbv-models/061_foam_brick/points.xyz");
+fn maskukf_started_off_the_truth_converges_on_real_ycb_video_frames() {
+    let dir = tempdir();
+    let frames = dir.path().join("frames");
+    std::fs::create_dir(&frames).unwrap();
+    let order = ping_pong_frames(&frames, 46);
+    let model = rgbd("ycbv-models/009_gelatin_box/points.xyz");
+    let estimates = dir.path().join("maskukf.mcap");
     let out = ok(&[
         "-q",
         "vision",
@@ -97,19 +148,30 @@ fn maskukf_tracks_the_ycb_video_frames_from_their_labels() {
         "--tracker",
         "maskukf",
         "--input",
-        &dir,
+        frames.to_str().unwrap(),
         "--model",
         &model,
         "--init",
-        "truth",
+        "perturbed",
+        "--out",
+        estimates.to_str().unwrap(),
         "--json",
     ]);
     let summary: Value = serde_json::from_str(&out).unwrap();
-    assert_eq!(summary["tracked"], 10);
-    let m = &summary["metrics"];
-    assert!(m["adi_auc_percent"].as_f64().unwrap() > 95.0, "{m}");
-    assert!(m["max_position_error_cm"].as_f64().unwrap() < 1.0, "{m}");
-    assert!(m["max_rotation_error_deg"].as_f64().unwrap() < 5.0, "{m}");
+    assert_eq!(summary["tracked"], 46);
+    println!("maskukf from the perturbed start: {}", summary["metrics"]);
+    let poses: Vec<(_, PoseInFrame)> =
+        read_json(&estimates, "/estimate/pose/maskukf", ReadOptions::default()).unwrap();
+    assert_eq!(poses.len(), 46);
+    let source = PathBuf::from(rgbd("ycbv-0000/data/0000"));
+    for (k, (_, pose)) in poses.iter().enumerate().skip(23) {
+        let meta = read_meta(&source.join(format!("{:06}-meta.mat", order[k] + 1))).unwrap();
+        let truth = meta.pose_of(8).unwrap();
+        let estimate = pose.pose.to_isometry().unwrap();
+        let dp_cm = position_error_m(&estimate, &truth) * 100.0;
+        let dr_deg = rotation_error_deg(&estimate, &truth);
+        assert!(dp_cm < 1.5 && dr_deg < 13.0, "frame {k}: {dp_cm:.2} cm, {dr_deg:.2} deg");
+    }
 }
 
 #[test]

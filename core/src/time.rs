@@ -10,8 +10,8 @@
 
 use std::fmt;
 use std::ops::{Add, Sub};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
@@ -109,27 +109,37 @@ impl Clock for SimClock {
     }
 }
 
-/// Wall time: the host's monotonic clock, 0 at creation. Copies share the origin.
-#[derive(Clone, Copy, Debug)]
+/// Wall time: the host's monotonic clock, 0 at creation (or at first use).
+/// Clones share the origin.
+#[derive(Clone, Debug)]
 pub struct WallClock {
-    origin: Instant,
+    /// The host instant of session time 0, set when the clock is first read
+    /// if it was not at creation.
+    origin: Arc<OnceLock<Instant>>,
 }
 
 impl WallClock {
     /// A wall clock whose time 0 is now.
     pub fn start() -> WallClock {
-        WallClock { origin: Instant::now() }
+        WallClock { origin: Arc::new(OnceLock::from(Instant::now())) }
+    }
+
+    /// A wall clock whose time 0 is when it is first read (or slept on):
+    /// for a simulated rig in real time, whose set-up (the camera's renderer,
+    /// the session file) must not count as time the devices already ran.
+    pub fn start_on_first_use() -> WallClock {
+        WallClock { origin: Arc::new(OnceLock::new()) }
     }
 
     /// The host instant of session time 0 (for mapping device clocks).
     pub fn origin(&self) -> Instant {
-        self.origin
+        *self.origin.get_or_init(Instant::now)
     }
 }
 
 impl Clock for WallClock {
     fn now(&self) -> TimeNs {
-        TimeNs(self.origin.elapsed().as_nanos() as u64)
+        TimeNs(self.origin().elapsed().as_nanos() as u64)
     }
     fn sleep_until(&self, t: TimeNs) {
         let now = self.now();
@@ -145,6 +155,19 @@ impl Clock for WallClock {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_clock_started_on_first_use_counts_from_then_and_clones_share_it() {
+        let clock = WallClock::start_on_first_use();
+        let copy = clock.clone();
+        std::thread::sleep(Duration::from_millis(50));
+        // Time 0 is now, not when the clock was made 50 ms ago.
+        assert!(copy.now() < TimeNs(40_000_000), "{:?}", copy.now());
+        std::thread::sleep(Duration::from_millis(20));
+        let (a, b) = (clock.now(), copy.now());
+        assert!(a >= TimeNs(20_000_000) && b >= a, "{a:?} {b:?}");
+        assert_eq!(clock.origin(), copy.origin());
+    }
 
     #[test]
     fn sim_clock_clones_share_time_and_never_go_back() {

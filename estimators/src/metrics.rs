@@ -4,12 +4,16 @@
 //! (3.51)-(3.54).
 //!
 //! Poses are `camera_from_object` isometries (m); velocities are the mixed
-//! velocity `(ṗ, ω)` in the camera frame (m/s, rad/s).
+//! velocity `(ṗ, ω)` in the camera frame (m/s, rad/s), or, for ROFT's
+//! velocity tracker (Table 5.3), the spatial velocity `𝒱 = (ṗ + ω × (-p), ω)`.
+//! The rotation error is also given with the rotation about an object's
+//! symmetry axis discounted (Sec. 4.2.4, [`rotation_error_modulo_symmetry_deg`]).
 
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Point3, Vector3, Vector6};
 use serde::Serialize;
 
 use crate::maskukf::ObjectPoints;
+use crate::orientation::rotation_error_modulo_symmetry_deg;
 
 /// The threshold of the AUC metrics used in the thesis: 10 cm.
 pub const AUC_THRESHOLD_M: f64 = 0.1;
@@ -137,6 +141,9 @@ pub struct FrameEvaluation {
     pub linear_velocity_mps: Option<(Vector3<f64>, Vector3<f64>)>,
     /// Estimated and true angular velocity `ω` (rad/s, camera frame), if known.
     pub angular_velocity_radps: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// The velocity tracker's spatial velocity `𝒱 = (v, ω)` (m/s, rad/s,
+    /// camera frame) and the true one, when the tracker has one (ROFT).
+    pub flow_velocity: Option<(Vector6<f64>, Vector6<f64>)>,
 }
 
 /// The metrics of one tracked sequence (the units of the thesis tables).
@@ -152,10 +159,19 @@ pub struct SequenceMetrics {
     pub position_rmse_cm: f64,
     /// Rotation RMSE (3.46), degrees.
     pub rotation_rmse_deg: f64,
+    /// Rotation RMSE with the rotation about the object's symmetry axis
+    /// discounted (Sec. 4.2.4), degrees; `rotation_rmse_deg` for objects
+    /// without one.
+    pub rotation_rmse_modulo_symmetry_deg: f64,
     /// Linear velocity RMSE (3.47), cm/s, when velocities are known.
     pub linear_velocity_rmse_cmps: Option<f64>,
     /// Angular velocity RMSE (3.48), deg/s, when velocities are known.
     pub angular_velocity_rmse_degps: Option<f64>,
+    /// Linear part of the velocity tracker's `𝒱` (ROFT, Table 5.3): RMSE
+    /// against the true spatial velocity, cm/s, when every frame has one.
+    pub flow_linear_velocity_rmse_cmps: Option<f64>,
+    /// Angular part of the velocity tracker's `𝒱` (Table 5.3): RMSE, deg/s.
+    pub flow_angular_velocity_rmse_degps: Option<f64>,
     /// Largest position error, cm.
     pub max_position_error_cm: f64,
     /// Largest rotation error, degrees.
@@ -173,10 +189,16 @@ pub struct FrameErrors {
     pub position_m: f64,
     /// Rotation error (deg).
     pub rotation_deg: f64,
+    /// Rotation error without the rotation about the symmetry axis (deg).
+    pub rotation_modulo_symmetry_deg: f64,
     /// Linear velocity error (m/s), when known.
     pub linear_velocity_mps: Option<f64>,
     /// Angular velocity error (rad/s), when known.
     pub angular_velocity_radps: Option<f64>,
+    /// Error of the linear part of the velocity tracker's `𝒱` (m/s).
+    pub flow_linear_velocity_mps: Option<f64>,
+    /// Error of the angular part of the velocity tracker's `𝒱` (rad/s).
+    pub flow_angular_velocity_radps: Option<f64>,
 }
 
 /// The errors of one frame against its model.
@@ -186,8 +208,15 @@ pub fn frame_errors(f: &FrameEvaluation, model: &ObjectPoints) -> FrameErrors {
         adi_m: adi_m(&f.estimate, &f.truth, model),
         position_m: position_error_m(&f.estimate, &f.truth),
         rotation_deg: rotation_error_deg(&f.estimate, &f.truth),
+        rotation_modulo_symmetry_deg: rotation_error_modulo_symmetry_deg(
+            &f.estimate,
+            &f.truth,
+            model.symmetry(),
+        ),
         linear_velocity_mps: f.linear_velocity_mps.map(|(e, t)| vector_error(&e, &t)),
         angular_velocity_radps: f.angular_velocity_radps.map(|(e, t)| vector_error(&e, &t)),
+        flow_linear_velocity_mps: f.flow_velocity.map(|(e, t)| (e - t).fixed_rows::<3>(0).norm()),
+        flow_angular_velocity_radps: f.flow_velocity.map(|(e, t)| (e - t).fixed_rows::<3>(3).norm()),
     }
 }
 
@@ -201,14 +230,22 @@ pub fn summarize(errors: &[FrameErrors]) -> SequenceMetrics {
     let linear: Option<Vec<f64>> = errors.iter().map(|e| e.linear_velocity_mps.map(|v| v * 100.0)).collect();
     let angular: Option<Vec<f64>> =
         errors.iter().map(|e| e.angular_velocity_radps.map(f64::to_degrees)).collect();
+    let flow_linear: Option<Vec<f64>> =
+        errors.iter().map(|e| e.flow_linear_velocity_mps.map(|v| v * 100.0)).collect();
+    let flow_angular: Option<Vec<f64>> =
+        errors.iter().map(|e| e.flow_angular_velocity_radps.map(f64::to_degrees)).collect();
+    let rotation_modulo_symmetry = collect(|e| e.rotation_modulo_symmetry_deg);
     SequenceMetrics {
         frames: errors.len(),
         add_auc_percent: 100.0 * auc(&add, AUC_THRESHOLD_M),
         adi_auc_percent: 100.0 * auc(&adi, AUC_THRESHOLD_M),
         position_rmse_cm: rmse(&position).map_or(f64::NAN, |v| v * 100.0),
         rotation_rmse_deg: rmse(&rotation).unwrap_or(f64::NAN),
+        rotation_rmse_modulo_symmetry_deg: rmse(&rotation_modulo_symmetry).unwrap_or(f64::NAN),
         linear_velocity_rmse_cmps: linear.as_deref().and_then(rmse),
         angular_velocity_rmse_degps: angular.as_deref().and_then(rmse),
+        flow_linear_velocity_rmse_cmps: flow_linear.as_deref().and_then(rmse),
+        flow_angular_velocity_rmse_degps: flow_angular.as_deref().and_then(rmse),
         max_position_error_cm: position.iter().fold(0.0f64, |m, v| m.max(*v)) * 100.0,
         max_rotation_error_deg: rotation.iter().fold(0.0f64, |m, v| m.max(*v)),
     }
@@ -299,11 +336,19 @@ mod tests {
             truth: a,
             linear_velocity_mps: Some((Vector3::new(0.1, 0.0, 0.0), Vector3::zeros())),
             angular_velocity_radps: None,
+            flow_velocity: Some((Vector6::new(0.0, 0.03, 0.04, 0.0, 0.0, 1.0), Vector6::zeros())),
         }];
         let m = evaluate(&frames, &cube());
         assert_eq!(m.frames, 1);
         assert_relative_eq!(m.rotation_rmse_deg, 10.0, epsilon = 1e-9);
         assert_relative_eq!(m.linear_velocity_rmse_cmps.unwrap(), 10.0, epsilon = 1e-9);
         assert!(m.angular_velocity_rmse_degps.is_none());
+        assert_relative_eq!(m.flow_linear_velocity_rmse_cmps.unwrap(), 5.0, epsilon = 1e-9);
+        assert_relative_eq!(m.flow_angular_velocity_rmse_degps.unwrap(), 1f64.to_degrees(), epsilon = 1e-9);
+        // The turn is about x: a model symmetric about x discounts all of it.
+        assert_relative_eq!(m.rotation_rmse_modulo_symmetry_deg, 10.0, epsilon = 1e-9);
+        let can =
+            cube().with_symmetry(crate::orientation::Symmetry::Axis { axis_in_object: Vector3::x_axis() });
+        assert!(evaluate(&frames, &can).rotation_rmse_modulo_symmetry_deg < 1e-6);
     }
 }

@@ -196,7 +196,9 @@ pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
             if !declared.iter().any(|t| t == source.topic()) {
                 let hint = match source {
                     TruthSource::GroundTruth => "; run `slidetrack label` on it first",
-                    TruthSource::ThesisGroundTruth => "; run `slidetrack label --thesis --slot thesis` on it first",
+                    TruthSource::ThesisGroundTruth => {
+                        "; run `slidetrack label --thesis --slot thesis` on it first"
+                    }
                     TruthSource::Sim => "",
                 };
                 bail!("{} has no {}{hint}", path.display(), source.topic());

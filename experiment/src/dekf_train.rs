@@ -6,10 +6,10 @@ use anyhow::{Context, Result, bail};
 use rand::SeedableRng;
 use serde_json::json;
 use slidetrack_estimators::dekf::{
-    Batching, DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence, Stage, TrainConfig,
-    train_with_selection,
+    Architecture, Batching, DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence,
+    Stage, TrainConfig, train_with_selection,
 };
-use slidetrack_estimators::derivative::DerivativeFilterConfig;
+use slidetrack_estimators::derivative::{DEFAULT_OUTLIER_GATE_SIGMA, DerivativeFilterConfig};
 
 use crate::dataset::{ChannelSet, SessionData, TruthSource};
 use crate::dekf_eval::score_session;
@@ -65,6 +65,13 @@ pub struct TrainSpec {
     /// ([`crate::dekf_run::rate_tolerance`]); 0.05 unless a dataset's rates
     /// vary more (imported recordings on a mean-rate clock).
     pub rate_tolerance: f64,
+    /// Gate of the derivative filter against isolated tactile spikes
+    /// (standard deviations; 0: off), stored in the model so that it runs
+    /// as it was trained.
+    pub outlier_gate_sigma: f64,
+    /// Width, residual blocks and activation of the networks (default: the
+    /// thesis's 64, 3, ReLU).
+    pub architecture: Architecture,
 }
 
 impl Default for TrainSpec {
@@ -87,6 +94,8 @@ impl Default for TrainSpec {
             threads: 0,
             truth: TruthSource::GroundTruth,
             rate_tolerance: DEFAULT_RATE_TOLERANCE,
+            outlier_gate_sigma: DEFAULT_OUTLIER_GATE_SIGMA,
+            architecture: Architecture::default(),
         }
     }
 }
@@ -154,7 +163,7 @@ fn new_model(
     let tactile_rate = common_tactile_rate(sessions, spec.rate_tolerance)?;
     let decimation = ((tactile_rate / spec.rate_hz).round() as usize).max(1);
     let channels = spec.channels.clone();
-    let filter = DerivativeFilterConfig::default();
+    let filter = DerivativeFilterConfig { outlier_gate_sigma: spec.outlier_gate_sigma, ..Default::default() };
     let prepared: Vec<Inputs> = sessions
         .iter()
         .map(|s| inputs(s, &channels, spec.measurement, filter, decimation))
@@ -183,7 +192,11 @@ fn new_model(
     {
         training.insert(RATE_TOLERANCE_KEY.into(), json!(spec.rate_tolerance));
     }
-    let mut model = DekfModel::new(meta, &mut rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed));
+    let mut model = DekfModel::with_architecture(
+        meta,
+        &spec.architecture,
+        &mut rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed),
+    );
     if spec.normalise_inputs {
         let (mean, std) = normalisation(&prepared.iter().collect::<Vec<_>>(), channels.len());
         model.set_input_normalisation(&mean, &std);
@@ -204,6 +217,9 @@ pub fn fit_sessions(
     }
     if spec.schedule.is_empty() {
         bail!("the training schedule has no stages");
+    }
+    if let Some(problem) = spec.architecture.problem() {
+        bail!("invalid network architecture: {problem}");
     }
     if !(spec.rate_tolerance.is_finite() && spec.rate_tolerance >= 0.0) {
         bail!("the rate tolerance must be a non-negative fraction, got {}", spec.rate_tolerance);

@@ -51,6 +51,8 @@ fn both_trackers_follow_the_sliding_object() {
             TrackerKind::MaskUkf => Box::new(TruthSource { masks: true, poses: false }),
             TrackerKind::Roft => Box::new(SlowNetwork::new(SlowNetworkConfig {
                 outlier_probability: 0.0,
+                position_noise_m: 0.005,
+                rotation_noise_deg: 2.0,
                 ..SlowNetworkConfig::default()
             })),
         };
@@ -72,8 +74,10 @@ fn both_trackers_follow_the_sliding_object() {
             }
         }
         println!("{}: worst position error after 0.4 s {:.2} cm", kind.name(), worst * 100.0);
-        // MaskUKF sees true masks; ROFT fuses network poses with 1.5 cm of noise per axis.
-        let limit = if kind == TrackerKind::MaskUkf { 0.01 } else { 0.04 };
+        // The object travels 2.55 cm: a tracker that stays where it started
+        // is 2-3 cm off by the end. MaskUKF sees true masks (0.31 cm);
+        // ROFT fuses network poses with 0.5 cm of noise per axis (1.14 cm).
+        let limit = if kind == TrackerKind::MaskUkf { 0.007 } else { 0.016 };
         assert!(worst < limit, "{}: {worst}", kind.name());
     }
 }
@@ -126,7 +130,8 @@ fn in_hand_vision_reports_travel_along_the_sliding_axis_and_records_it() {
         recorder.finish().unwrap();
         println!("{}: worst travel error after 0.4 s {:.2} cm", kind.name(), worst_p * 100.0);
         assert_eq!(tracked, 45, "started at the rig's known pose");
-        assert!(worst_p < 0.02, "{}: {worst_p}", kind.name());
+        // Travel 2.55 cm; MaskUKF 0.67 cm, ROFT 0.25 cm off at worst.
+        assert!(worst_p < 0.013, "{}: {worst_p}", kind.name());
         let info = SessionInfo::read(&path, ReadOptions::default()).unwrap();
         for topic in slidetrack_vision::record::EstimateChannels::topics(kind) {
             assert_eq!(info.channel(topic).map(|c| c.message_count), Some(45), "{topic}");

@@ -8,6 +8,7 @@
 //!   reads, for benchmarks and tests of the recorder's independence.
 
 mod address;
+mod background;
 mod error;
 mod player;
 mod player_clock;

@@ -33,10 +33,13 @@ impl StalledViewer {
     ) -> Result<StalledViewer, LiveError> {
         let probe = |e: &dyn std::fmt::Display| LiveError::Probe(format!("ws://{addr}: {e}"));
         let stream = TcpStream::connect_timeout(&addr, timeout).map_err(|e| probe(&e))?;
-        stream.set_read_timeout(Some(Duration::from_millis(50))).map_err(|e| probe(&e))?;
+        // The whole timeout for the handshake (the server's threads run at
+        // nice 19 and answer late on a busy machine), then short reads.
+        stream.set_read_timeout(Some(timeout)).map_err(|e| probe(&e))?;
         let mut request = format!("ws://{addr}/").into_client_request().map_err(|e| probe(&e))?;
         request.headers_mut().insert("Sec-WebSocket-Protocol", HeaderValue::from_static(SUBPROTOCOL));
         let (mut socket, _) = tungstenite::client(request, stream).map_err(|e| probe(&e))?;
+        socket.get_ref().set_read_timeout(Some(Duration::from_millis(50))).map_err(|e| probe(&e))?;
         let deadline = Instant::now() + timeout;
         let mut channels = BTreeSet::new();
         while channels.len() < min_channels && Instant::now() < deadline {

@@ -73,17 +73,31 @@ impl Publisher {
         }
     }
 
-    /// Publishes until `stop` is set and the queue is empty, or every tap is gone.
-    pub(crate) fn run(mut self, rx: &LiveReceiver, stop: &AtomicBool) -> PublisherStats {
-        loop {
+    /// Publishes until `stop` is set or every tap is gone; what is still
+    /// queued then is left for [`Publisher::catch_up`].
+    pub(crate) fn run(&mut self, rx: &LiveReceiver, stop: &AtomicBool) {
+        while !stop.load(Ordering::Acquire) {
             self.send_latest_to_new_subscribers();
             match rx.recv_timeout(POLL) {
                 Ok(Some(record)) => self.handle(record),
-                Ok(None) if stop.load(Ordering::Acquire) => break,
                 Ok(None) => {}
                 Err(_closed) => break,
             }
         }
+    }
+
+    /// Publishes everything queued now, without waiting; whether there was anything.
+    pub(crate) fn catch_up(&mut self, rx: &LiveReceiver) -> bool {
+        let mut any = self.send_latest_to_new_subscribers();
+        while let Ok(Some(record)) = rx.recv_timeout(Duration::ZERO) {
+            self.handle(record);
+            any = true;
+        }
+        any
+    }
+
+    /// Counts so far.
+    pub(crate) fn stats(&self) -> PublisherStats {
         self.stats
     }
 
@@ -131,13 +145,17 @@ impl Publisher {
     }
 
     /// Sends each new subscriber the latest message of its channel (it may
-    /// also have had it already, when it subscribed just before).
-    fn send_latest_to_new_subscribers(&mut self) {
+    /// also have had it already, when it subscribed just before); whether
+    /// anyone had subscribed.
+    fn send_latest_to_new_subscribers(&mut self) -> bool {
+        let mut any = false;
         while let Ok(NewSubscriber { topic, sink }) = self.subscribed.try_recv() {
+            any = true;
             if let Some(Published { channel, latest: Some((t, payload)), .. }) = self.by_topic.get(&topic) {
                 channel.log_with_meta_to_sink(payload, PartialMetadata { log_time: Some(*t) }, Some(sink));
             }
         }
+        any
     }
 
     /// Makes (or keeps) the Foxglove channel of `spec`.

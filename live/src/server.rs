@@ -4,18 +4,20 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{Context, WebSocketServer, WebSocketServerHandle};
-use slidetrack_session::{LiveTap, LiveTapStats};
+use slidetrack_session::{LiveReceiver, LiveTap, LiveTapStats};
 
 use super::address::resolve_addr;
+use super::background::{BackgroundRuntime, run_behind_the_recording};
 use super::error::LiveError;
 use super::publisher::{NewSubscriber, Publisher, PublisherStats};
 
 /// Longest wait for the server's connections to close at shutdown: a viewer
 /// that does not read holds its connection open (its socket is full).
-const STOP_WAIT: std::time::Duration = std::time::Duration::from_secs(1);
+const STOP_WAIT: Duration = Duration::from_secs(1);
 
 /// Stops `server`, waiting at most [`STOP_WAIT`] for its connections to close.
 pub(crate) fn stop_server(server: WebSocketServerHandle) {
@@ -30,8 +32,9 @@ pub(crate) fn stop_server(server: WebSocketServerHandle) {
     }
 }
 
-/// How long connected viewers get to receive the last messages at shutdown.
-const STOP_GRACE: std::time::Duration = std::time::Duration::from_millis(300);
+/// How long connected viewers get to subscribe to the last channels and
+/// receive the last messages at shutdown.
+const STOP_GRACE: Duration = Duration::from_millis(300);
 
 /// How the live view publishes.
 #[derive(Clone, Debug, PartialEq)]
@@ -89,13 +92,18 @@ pub struct LiveStats {
 /// - Nothing here blocks a recorder: messages go through a bounded queue
 ///   (dropped when full), then to the SDK, whose per-viewer queues drop the
 ///   oldest messages of a viewer that does not read. No viewer subscribed:
-///   nothing is queued at all.
+///   nothing is queued at all. The publisher and the server's threads run
+///   at nice 19, so on a busy core the recording gets the time and the
+///   viewer the messages that fit (see `background.rs`).
 pub struct LiveServer {
     server: Arc<WebSocketServerHandle>,
     addr: SocketAddr,
     tap: LiveTap,
     stop: Arc<AtomicBool>,
-    publisher: Option<JoinHandle<PublisherStats>>,
+    /// The publisher thread; it hands the publisher and its queue back at shutdown.
+    publisher: Option<JoinHandle<(Publisher, LiveReceiver)>>,
+    /// The server's runtime, driven at nice 19 until shutdown.
+    runtime: BackgroundRuntime,
 }
 
 /// Turns the tap on while at least one channel has a subscriber, and tells
@@ -129,29 +137,36 @@ impl LiveServer {
         let requested = resolve_addr(addr)?;
         let (tap, rx) = LiveTap::new(options.queue_messages, options.queue_bytes);
         let context = Context::new();
+        let mut runtime = BackgroundRuntime::new()?;
         let (new_subscribers, subscribed) = crossbeam_channel::unbounded();
         let listener =
             Arc::new(Subscriptions { active: AtomicUsize::new(0), tap: tap.clone(), new_subscribers });
-        let server = WebSocketServer::new()
+        let starting = WebSocketServer::new()
             .name(format!("slidetrack {}", env!("CARGO_PKG_VERSION")))
             .context(&context)
             .listener(listener)
             .message_backlog_size(options.viewer_backlog.max(1))
+            .tokio_runtime(runtime.handle())
             .bind(requested.ip().to_string(), requested.port())
-            .start_blocking()
-            .map_err(|e| LiveError::starting(requested, e))?;
+            .start();
+        let server = runtime.block_on(starting).map_err(|e| LiveError::starting(requested, e))?;
+        runtime.drive_in_background()?;
         let addr = SocketAddr::new(requested.ip(), server.port());
         let server = Arc::new(server);
         let stop = Arc::new(AtomicBool::new(false));
-        let publisher = Publisher::new(context, Arc::clone(&server), options.image_max_hz, subscribed);
+        let mut publisher = Publisher::new(context, Arc::clone(&server), options.image_max_hz, subscribed);
         let thread = {
             let stop = Arc::clone(&stop);
             std::thread::Builder::new()
                 .name("live-publisher".into())
-                .spawn(move || publisher.run(&rx, &stop))
+                .spawn(move || {
+                    run_behind_the_recording();
+                    publisher.run(&rx, &stop);
+                    (publisher, rx)
+                })
                 .map_err(LiveError::Thread)?
         };
-        Ok(LiveServer { server, addr, tap, stop, publisher: Some(thread) })
+        Ok(LiveServer { server, addr, tap, stop, publisher: Some(thread), runtime })
     }
 
     /// The address viewers connect to (the bound port when 0 was asked).
@@ -175,27 +190,56 @@ impl LiveServer {
     }
 
     /// Publishes what is still queued, stops the server and returns the counts.
+    ///
+    /// The caller's thread takes over from the background threads (see
+    /// `background.rs`): it publishes what the recorders queued, gives
+    /// viewers [`STOP_GRACE`] to subscribe to the last channels (the
+    /// recorder's statistics) and receive the last messages, and stops the
+    /// server, all at the caller's priority.
     pub fn shutdown(self) -> LiveStats {
-        let LiveServer { server, tap, stop, publisher, .. } = self;
-        // Viewers get a moment to subscribe to the last channels (the
-        // recorder's statistics) and receive the last messages before the
-        // publisher stops; the SDK drops what is still queued at stop.
-        if server.client_count() > 0 {
-            std::thread::sleep(STOP_GRACE);
-        }
+        let LiveServer { server, tap, stop, publisher, mut runtime, .. } = self;
         stop.store(true, Ordering::Release);
-        let published = publisher.and_then(|t| t.join().ok()).unwrap_or_default();
-        if server.client_count() > 0 {
-            std::thread::sleep(STOP_GRACE / 4);
+        let publisher = publisher.and_then(|t| t.join().ok());
+        runtime.hand_over();
+        let mut stats = PublisherStats::default();
+        if let Some((mut publisher, rx)) = publisher {
+            let grace = if server.client_count() > 0 { STOP_GRACE } else { Duration::ZERO };
+            runtime.block_on(catch_up(&mut publisher, &rx, grace));
+            stats = publisher.stats();
         }
         // The publisher has let go of its handle.
         if let Ok(server) = Arc::try_unwrap(server) {
-            stop_server(server);
+            let stopping = server.stop();
+            // (The timer is made inside the runtime.)
+            if runtime.block_on(async { tokio::time::timeout(STOP_WAIT, stopping.wait()).await }).is_err() {
+                tracing::debug!("live: a viewer did not close its connection; leaving it");
+            }
         }
-        LiveStats {
-            tap: tap.stats(),
-            published: published.published,
-            images_throttled: published.images_throttled,
+        LiveStats { tap: tap.stats(), published: stats.published, images_throttled: stats.images_throttled }
+    }
+}
+
+/// Longest the catch-up at shutdown goes on while recorders still queue
+/// messages (a recorder that outlives the server).
+const CATCH_UP_LIMIT: Duration = Duration::from_secs(10);
+
+/// How often the catch-up looks at the queue while the runtime sends.
+const CATCH_UP_POLL: Duration = Duration::from_millis(5);
+
+/// Publishes what is queued until the queue stays empty and `grace` has
+/// passed, the runtime sending to viewers and taking their subscriptions
+/// in between; then gives the last messages a moment to go out.
+async fn catch_up(publisher: &mut Publisher, rx: &LiveReceiver, grace: Duration) {
+    let start = Instant::now();
+    loop {
+        let busy = publisher.catch_up(rx);
+        let elapsed = start.elapsed();
+        if (!busy && elapsed >= grace) || elapsed >= CATCH_UP_LIMIT {
+            break;
         }
+        tokio::time::sleep(CATCH_UP_POLL).await;
+    }
+    if !grace.is_zero() {
+        tokio::time::sleep(STOP_GRACE / 4).await;
     }
 }

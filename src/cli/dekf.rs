@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use slidetrack_estimators::dekf::{Batching, Measurement};
+use slidetrack_estimators::dekf::{Activation, Batching, Measurement};
+use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
 use slidetrack_experiment::dataset::TruthSource;
 use slidetrack_experiment::dekf_train::{DEFAULT_CLIP_NORM, DEFAULT_POSITION_SHIFT_CM};
 use slidetrack_experiment::protocol::Protocol;
@@ -77,6 +78,27 @@ pub enum MeasurementArg {
     Raw,
 }
 
+/// The networks' activation, on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ActivationArg {
+    /// `max(x, 0)` (the thesis's).
+    Relu,
+    /// `tanh(x)`.
+    Tanh,
+    /// GELU, tanh approximation (PyTorch's `nn.GELU(approximate="tanh")`).
+    Gelu,
+}
+
+impl From<ActivationArg> for Activation {
+    fn from(a: ActivationArg) -> Activation {
+        match a {
+            ActivationArg::Relu => Activation::Relu,
+            ActivationArg::Tanh => Activation::Tanh,
+            ActivationArg::Gelu => Activation::Gelu,
+        }
+    }
+}
+
 /// Arguments of `train`.
 #[derive(Debug, Args, Clone)]
 pub struct TrainArgs {
@@ -120,6 +142,16 @@ pub struct TrainArgs {
     /// Seed of initialisation, shuffling and initial-state draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Width of every hidden layer of the three networks (Sec. 6.1.6: 64).
+    #[arg(long, default_value_t = 64)]
+    pub width: usize,
+    /// Residual blocks after `shared.linear` in each network (Sec. 6.1.6:
+    /// 3; the encoder always has its own one).
+    #[arg(long, default_value_t = 3)]
+    pub blocks: usize,
+    /// The networks' activation (Sec. 6.1.6: relu).
+    #[arg(long, value_enum, default_value_t = ActivationArg::Relu)]
+    pub activation: ActivationArg,
     /// Shift each training window by a random offset along the sliding axis,
     /// uniform in +-this (cm), so that the networks cannot tie their output to
     /// where the object happens to be (see the README); 0 keeps the recorded
@@ -154,6 +186,12 @@ pub struct TrainArgs {
     /// than the default.
     #[arg(long, default_value_t = 0.05)]
     pub rate_tolerance: f64,
+    /// Leave out tactile samples further than this many standard deviations
+    /// from the derivative filter's prediction (isolated spikes), at most two
+    /// scans in a row; 0 takes every sample. Stored in the model: the online
+    /// filter runs with the same gate.
+    #[arg(long, value_name = "SIGMA", default_value_t = DEFAULT_OUTLIER_GATE_SIGMA)]
+    pub outlier_gate: f64,
 }
 
 /// Arguments of `replay`.

@@ -3,6 +3,7 @@
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
+use slidetrack_estimators::dekf::Architecture;
 use slidetrack_experiment::dataset::{ChannelSet, SessionData, expand, load};
 use slidetrack_experiment::dekf_run::save_model;
 use slidetrack_experiment::dekf_train::{TrainSpec, Trained, fit_sessions, parse_schedule};
@@ -28,6 +29,12 @@ pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
         threads: args.threads,
         truth: args.truth.into(),
         rate_tolerance: args.rate_tolerance,
+        outlier_gate_sigma: args.outlier_gate,
+        architecture: Architecture {
+            width: args.width,
+            residual_blocks: args.blocks,
+            activation: args.activation.into(),
+        },
     })
 }
 
@@ -77,6 +84,7 @@ pub fn run(args: &TrainArgs, quiet: bool) -> Result<()> {
         let out = json!({
             "model": args.out,
             "channels": trained.model.meta.channels,
+            "architecture": trained.model.architecture(),
             "measurement": trained.model.meta.measurement.name(),
             "dt_s": trained.model.meta.dt_s,
             "seconds": trained.seconds,

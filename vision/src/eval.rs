@@ -2,7 +2,7 @@
 //! an input, the metrics of Sec. 3.4 over the tracked frames, and the ROFT
 //! variants of Table 5.6 on any RGB-D source with truth.
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::Serialize;
 use slidetrack_core::ObjectTruth;
 use slidetrack_estimators::maskukf::ObjectPoints;
@@ -16,7 +16,7 @@ use crate::VisionError;
 use crate::input::{RgbdSample, RgbdSource};
 use crate::model::ObjectModel;
 use crate::online::{OnlineTracker, TrackedState, TrackerKind, TrackerSettings, build_tracker};
-use crate::sources::{Combined, FrameTruth, MeasurementSource, SlowNetwork, SlowNetworkConfig, TruthSource};
+use crate::sources::{Combined, FrameTruth, MeasurementSource, SlowNetwork, SlowNetworkConfig};
 
 /// One evaluated frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -28,6 +28,18 @@ pub struct TrackedFrame {
     /// The newest pose measurement received by this frame (the "network
     /// alone" baseline: the last available output, thesis Sec. 5.5.5).
     pub last_measured_pose: Option<Isometry3<f64>>,
+    /// ROFT's velocity-tracker estimate `𝒱 = (v, ω)` (m/s, rad/s).
+    pub flow_velocity: Option<Vector6<f64>>,
+}
+
+impl TrackedFrame {
+    /// The true spatial velocity `𝒱 = (ṗ + ω × (-p), ω)` (3.26) of the frame.
+    pub fn true_flow_velocity(&self) -> Vector6<f64> {
+        let p = self.truth.camera_from_object.translation.vector;
+        let w = self.truth.angular_velocity_radps;
+        let v = self.truth.linear_velocity_mps + w.cross(&(-p));
+        Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z)
+    }
 }
 
 /// Runs `tracker` (or no tracker, for the measurement baseline) over
@@ -56,7 +68,12 @@ pub fn track(
         };
         on_frame(&sample, state.as_ref());
         if let Some(truth) = sample.truth {
-            out.push(TrackedFrame { truth, estimate: state.map(|s| s.estimate), last_measured_pose });
+            out.push(TrackedFrame {
+                truth,
+                flow_velocity: state.as_ref().and_then(|s| s.flow_velocity),
+                estimate: state.map(|s| s.estimate),
+                last_measured_pose,
+            });
         }
     }
     Ok(out)
@@ -105,11 +122,16 @@ pub fn errors(
                 },
                 Scored::Measurement => (f.last_measured_pose.unwrap_or_else(|| far(&truth)), None),
             };
+            let flow_velocity = match scored {
+                Scored::Tracker => f.flow_velocity.map(|e| (e, f.true_flow_velocity())),
+                Scored::Measurement => None,
+            };
             FrameEvaluation {
                 estimate,
                 truth,
                 linear_velocity_mps: velocity.map(|(v, _)| (v, f.truth.linear_velocity_mps)),
                 angular_velocity_radps: velocity.map(|(_, w)| (w, f.truth.angular_velocity_radps)),
+                flow_velocity,
             }
         })
         .collect();
@@ -119,11 +141,11 @@ pub fn errors(
 /// The rows of Table 5.6 (and the MaskUKF check on the same sequences).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub enum Variant {
-    /// ROFT with ground-truth masks and poses.
+    /// ROFT with ground-truth masks and poses (at the network's rate and delay).
     RoftGtSegmPose,
-    /// ROFT with ground-truth poses.
+    /// ROFT with ground-truth poses (at the network's rate and delay).
     RoftGtPose,
-    /// ROFT with ground-truth masks.
+    /// ROFT with ground-truth masks (at the network's rate and delay).
     RoftGtSegm,
     /// ROFT.
     Roft,
@@ -189,19 +211,17 @@ impl Variant {
         c
     }
 
-    /// Where the masks and poses come from.
-    fn measurements(self, network: &SlowNetworkConfig) -> Box<dyn MeasurementSource> {
+    /// Where the masks and poses come from. Ground truth ("GT") arrives as
+    /// the network's results do (same rate and delay, without their
+    /// errors); only the network's "ideal" row has results for every frame
+    /// without delay.
+    pub fn measurements(self, network: &SlowNetworkConfig) -> Box<dyn MeasurementSource> {
         let slow = || Box::new(SlowNetwork::new(network.clone()));
+        let slow_truth = || Box::new(SlowNetwork::new(network.exact()));
         match self {
-            Variant::RoftGtSegmPose => Box::new(TruthSource { masks: true, poses: true }),
-            Variant::RoftGtPose => Box::new(Combined {
-                masks: slow(),
-                poses: Box::new(TruthSource { masks: false, poses: true }),
-            }),
-            Variant::RoftGtSegm => Box::new(Combined {
-                masks: Box::new(TruthSource { masks: true, poses: false }),
-                poses: slow(),
-            }),
+            Variant::RoftGtSegmPose => slow_truth(),
+            Variant::RoftGtPose => Box::new(Combined { masks: slow(), poses: slow_truth() }),
+            Variant::RoftGtSegm => Box::new(Combined { masks: slow_truth(), poses: slow() }),
             Variant::NetworkIdeal => {
                 Box::new(SlowNetwork::new(SlowNetworkConfig { latency_s: 0.0, ..network.clone() }))
             }

@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector6};
 use slidetrack_core::{CameraIntrinsics, RgbdFrame, TimeNs};
 use slidetrack_estimators::maskukf::{CloudInput, MaskUkf, MaskUkfConfig, MeasurementUsed, ObjectPoints};
 use slidetrack_estimators::orientation::PoseVelocity;
@@ -64,6 +64,9 @@ pub struct TrackedState {
     pub t: TimeNs,
     /// Pose and mixed velocity, camera frame.
     pub estimate: PoseVelocity,
+    /// ROFT: its velocity tracker's spatial velocity `𝒱 = (v, ω)` (m/s,
+    /// rad/s, camera frame; Sec. 5.3, Table 5.3); `None` for MaskUKF.
+    pub flow_velocity: Option<Vector6<f64>>,
     /// What the tracker did.
     pub note: StepNote,
 }
@@ -219,6 +222,7 @@ impl OnlineTracker for MaskUkfTracker {
         Ok(Some(TrackedState {
             t: frame.t,
             estimate: filter.estimate(),
+            flow_velocity: None,
             note: StepNote::MaskUkf { used: report.used, points: report.points, outliers: report.outliers },
         }))
     }
@@ -298,9 +302,11 @@ impl OnlineTracker for RoftTracker {
             pose,
         };
         let report = self.roft.step(input)?;
+        let flow_velocity = self.roft.spatial_velocity();
         Ok(self.roft.estimate().map(|estimate| TrackedState {
             t: frame.t,
             estimate,
+            flow_velocity: Some(flow_velocity),
             note: StepNote::Roft { flow_vectors: report.flow_vectors, pose: report.pose },
         }))
     }

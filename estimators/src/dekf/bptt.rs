@@ -87,6 +87,24 @@ fn with_tangents(means: &[[f64; 2]]) -> DMatrix<f32> {
     m
 }
 
+/// `dmean` (the adjoint of a network's input with its outputs held fixed)
+/// plus the path through the network of sample `s`: its input gradient `dx`
+/// from the backward pass when there is one (smooth networks: first and
+/// second order), else `dvalue J` (ReLU networks, whose Jacobian `J` has a
+/// zero derivative).
+fn through_network(
+    dmean: [f64; 2],
+    dvalue: f64,
+    J: [f64; 2],
+    dx: Option<&DMatrix<f32>>,
+    s: usize,
+) -> [f64; 2] {
+    match dx {
+        Some(dx) => [dmean[0] + f64::from(dx[(0, 3 * s)]), dmean[1] + f64::from(dx[(1, 3 * s)])],
+        None => [dmean[0] + dvalue * J[0], dmean[1] + dvalue * J[1]],
+    }
+}
+
 /// Runs the filter over `windows` for `length` steps and backpropagates the
 /// sum of squared state errors. Deterministic for given inputs.
 #[expect(
@@ -157,11 +175,18 @@ pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], leng
     let mut dcov = vec![[[0.0f64; 2]; 2]; n];
     let mut dQ = [[0.0f64; 2]; 2];
     let mut dR = 0.0f64;
+    // Smooth networks: the mean's adjoint through a network comes from its
+    // backward pass (with the Hessian terms of the Jacobians); ReLU networks
+    // have none, and it is `d(output) J` (see `ekf`'s module doc).
+    let curved = l.architecture.activation.has_curvature();
+    let mut cgs: Vec<CorrectGrad> = Vec::with_capacity(n);
+    let mut da = vec![0.0f64; n];
     for (k, step) in steps.iter().enumerate().rev() {
         let t_of = |w: &Window| w.start + k + 1;
         let mut dy2 = DMatrix::<f32>::zeros(1, 3 * n);
         let mut dy3 = DMatrix::<f32>::zeros(1, n);
         let mut dy1 = DMatrix::<f32>::zeros(1, 3 * n);
+        cgs.clear();
         for (s, w) in windows.iter().enumerate() {
             let truth = data[w.sequence].truth[t_of(w)];
             let m = step.mean[s];
@@ -169,7 +194,7 @@ pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], leng
             dmean[s][0] += 2.0 * (m[0] - truth[0] - w.position_shift);
             dmean[s][1] += 2.0 * (m[1] - truth[1]);
             let pr = &step.pred[s];
-            let cg = match &step.corr[s] {
+            cgs.push(match &step.corr[s] {
                 Some(co) => {
                     let g = correct_backward(co, &pr.cov, step.H[s], R, dmean[s], &dcov[s]);
                     dR += g.R;
@@ -180,24 +205,31 @@ pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], leng
                     g
                 }
                 None => CorrectGrad { mean: dmean[s], cov: dcov[s], ..CorrectGrad::default() },
-            };
-            let pg = predict_backward(pr, &step.cov_prev[s], step.J1[s], model.meta.dt_s, cg.mean, &cg.cov);
+            });
+        }
+        let dx2 = backward(p, &mut out.grad, &l.measurement, &step.t2, &dy2, curved);
+        if let Some(t3) = &step.t3 {
+            backward(p, &mut out.grad, &l.feature, t3, &dy3, false);
+        }
+        for (s, cg) in cgs.iter().enumerate() {
+            let dpred = through_network(cg.mean, cg.zhat, step.H[s], dx2.as_ref(), s);
+            let pg = predict_backward(&step.pred[s], &step.cov_prev[s], model.meta.dt_s, dpred, &cg.cov);
             for (row, grad_row) in dQ.iter_mut().zip(&pg.Q) {
                 for (d, g) in row.iter_mut().zip(grad_row) {
                     *d += g;
                 }
             }
+            da[s] = pg.a;
             dy1[(0, 3 * s)] = pg.a as f32;
             dy1[(0, 3 * s + 1)] = pg.J1[0] as f32;
             dy1[(0, 3 * s + 2)] = pg.J1[1] as f32;
             dmean[s] = pg.mean;
             dcov[s] = pg.cov;
         }
-        backward(p, &mut out.grad, &l.measurement, &step.t2, &dy2);
-        if let Some(t3) = &step.t3 {
-            backward(p, &mut out.grad, &l.feature, t3, &dy3);
+        let dx1 = backward(p, &mut out.grad, &l.motion, &step.t1, &dy1, curved);
+        for (s, dm) in dmean.iter_mut().enumerate() {
+            *dm = through_network(*dm, da[s], step.J1[s], dx1.as_ref(), s);
         }
-        backward(p, &mut out.grad, &l.motion, &step.t1, &dy1);
     }
     // Q = L L^T: dL = (dQ + dQ^T) L, lower triangle; R = L_R^2: dL_R = 2 L_R dR.
     let o = l.process_noise;

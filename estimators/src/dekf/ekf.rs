@@ -7,6 +7,15 @@
 //! feature `z = NN3(tau')` and `z^ = NN2(x-)`, `H = dNN2/dx` at `x-`:
 //! `S = H P- H^T + R`, `R = L_R^2`, `K = P- H^T / S`, `x = x- + K (z - z^)`,
 //! `P = (I - K H) P- (I - K H)^T + K R K^T` (Joseph form).
+//!
+//! The reverse-mode functions treat the networks' outputs (`a`, `J1`, `z`,
+//! `zhat`, `H`) as inputs and return their adjoints; the mean adjoints they
+//! return exclude the paths through the networks, which depend on the mean
+//! too. The caller adds those: `d(a)/dx = J1` and `d(J1)/dx = d2 NN1/dx2`
+//! (and likewise for NN2 with `zhat` and `H`). The second-order part is zero
+//! for ReLU networks (piecewise linear, so their Jacobians are piecewise
+//! constant) but not for smooth activations; [`super::mlp::backward`]
+//! computes both parts from the tape.
 #![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 /// A 2x2 matrix, row-major.
@@ -57,7 +66,8 @@ pub fn predict(mean: [f64; 2], cov: &M2, a: f64, J1: [f64; 2], dt: f64, Q: &M2) 
 /// Adjoints flowing out of a prediction.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PredictGrad {
-    /// d loss / d previous mean.
+    /// d loss / d previous mean with NN1's outputs `a` and `J1` held fixed
+    /// (the caller adds the paths through NN1, see the module's doc).
     pub mean: [f64; 2],
     /// d loss / d previous covariance.
     pub cov: M2,
@@ -69,22 +79,17 @@ pub struct PredictGrad {
     pub Q: M2,
 }
 
-/// Reverse of [`predict`]: from the adjoints of `x-` and `P-`.
-pub fn predict_backward(
-    pred: &Predicted,
-    cov: &M2,
-    J1: [f64; 2],
-    dt: f64,
-    dmean: [f64; 2],
-    dcov: &M2,
-) -> PredictGrad {
+/// Reverse of [`predict`]: from the adjoints of `x-` and `P-`. NN1's
+/// outputs are held fixed: the returned mean adjoint lacks
+/// `da J1 + (d2 NN1/dx2) dJ1`, which the caller adds.
+pub fn predict_backward(pred: &Predicted, cov: &M2, dt: f64, dmean: [f64; 2], dcov: &M2) -> PredictGrad {
     let F = &pred.F;
     // P- = F P F^T + Q: dP = F^T dP- F, dF = dP- F P^T + dP-^T F P.
     let dP = mul(&mul(&tr(F), dcov), F);
     let dF = add(&mul(&mul(dcov, F), &tr(cov)), &mul(&mul(&tr(dcov), F), cov));
     let da = dmean[1];
-    // x- = (p + v dt, v + a(x)); a's input gradient is J1 itself.
-    let dmean_prev = [dmean[0] + da * J1[0], dmean[0] * dt + dmean[1] + da * J1[1]];
+    // x- = (p + v dt, v + a), `a` held fixed.
+    let dmean_prev = [dmean[0], dmean[0] * dt + dmean[1]];
     PredictGrad { mean: dmean_prev, cov: dP, a: da, J1: [dF[1][0], dF[1][1]], Q: *dcov }
 }
 
@@ -120,7 +125,8 @@ pub fn correct(mean: [f64; 2], cov: &M2, z: f64, zhat: f64, H: [f64; 2], R: f64)
 /// Adjoints flowing out of a correction.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CorrectGrad {
-    /// d loss / d predicted mean (including through `zhat = NN2(x-)`).
+    /// d loss / d predicted mean with NN2's outputs `zhat` and `H` held
+    /// fixed (the caller adds the paths through NN2, see the module's doc).
     pub mean: [f64; 2],
     /// d loss / d predicted covariance.
     pub cov: M2,
@@ -134,7 +140,8 @@ pub struct CorrectGrad {
     pub R: f64,
 }
 
-/// Reverse of [`correct`].
+/// Reverse of [`correct`]. NN2's outputs are held fixed: the returned mean
+/// adjoint lacks `dzhat H + (d2 NN2/dx2) dH`, which the caller adds.
 pub fn correct_backward(
     c: &Corrected,
     cov: &M2,
@@ -185,10 +192,9 @@ pub fn correct_backward(
         }
     }
     dR += dS;
-    // y = z - zhat, zhat = NN2(x-): zhat's input gradient is H.
+    // y = z - zhat.
     let dzhat = -dy;
-    let dmean_total = [dmean_pred[0] + dzhat * H[0], dmean_pred[1] + dzhat * H[1]];
-    CorrectGrad { mean: dmean_total, cov: dPm, z: dy, zhat: dzhat, H: dH, R: dR }
+    CorrectGrad { mean: dmean_pred, cov: dPm, z: dy, zhat: dzhat, H: dH, R: dR }
 }
 
 #[cfg(test)]
@@ -228,11 +234,10 @@ mod tests {
         let co = correct(pr.mean, &pr.cov, z, zhat, H, R);
         let dmean = [1.3, -0.6];
         let dcov = [[0.3, -0.7], [1.1, 0.4]];
+        // zhat, H, a and J1 are inputs here (held fixed), as the adjoints
+        // assume.
         let cg = correct_backward(&co, &pr.cov, H, R, dmean, &dcov);
-        // zhat and H are outputs of NN2 at x-; here they are held fixed, so the
-        // mean adjoint must exclude the zhat path for this check.
-        let dmean_pred = [cg.mean[0] - cg.zhat * H[0], cg.mean[1] - cg.zhat * H[1]];
-        let pg = predict_backward(&pr, &cov, J1, 0.03, dmean_pred, &cg.cov);
+        let pg = predict_backward(&pr, &cov, 0.03, cg.mean, &cg.cov);
         let f = |d: &dyn Fn(&mut [f64; 16])| {
             let mut v = [
                 mean[0], mean[1], cov[0][0], cov[0][1], cov[1][0], cov[1][1], a, J1[0], J1[1], zhat, H[0],
@@ -252,10 +257,9 @@ mod tests {
                 &q,
             )
         };
-        // Likewise `a` is held fixed here: remove its input-gradient path.
         let analytic = [
-            pg.mean[0] - pg.a * J1[0],
-            pg.mean[1] - pg.a * J1[1],
+            pg.mean[0],
+            pg.mean[1],
             pg.cov[0][0],
             pg.cov[0][1],
             pg.cov[1][0],

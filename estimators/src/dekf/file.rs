@@ -8,10 +8,14 @@ use safetensors::tensor::{Dtype, SafeTensors, TensorView};
 use thiserror::Error;
 
 use super::model::{DekfModel, ModelMeta};
-use super::params::Layout;
+use super::params::{Architecture, Layout};
 
 /// Metadata key holding the JSON of [`ModelMeta`].
 pub const META_KEY: &str = "slidetrack.dekf";
+/// Metadata key holding the JSON of the networks' [`Architecture`]
+/// (`{"width": 64, "residual_blocks": 3, "activation": "relu"}`); a file
+/// without it has the thesis's.
+pub const ARCHITECTURE_KEY: &str = "slidetrack.dekf.architecture";
 /// Metadata key holding the format version.
 pub const FORMAT_KEY: &str = "format";
 /// The format written.
@@ -26,6 +30,12 @@ pub enum ModelFileError {
     /// The header has no slidetrack metadata, or it does not parse.
     #[error("missing or invalid `{META_KEY}` metadata: {detail}")]
     Metadata {
+        /// What is wrong.
+        detail: String,
+    },
+    /// The architecture metadata does not parse or is not usable.
+    #[error("invalid `{ARCHITECTURE_KEY}` metadata: {detail}")]
+    Architecture {
         /// What is wrong.
         detail: String,
     },
@@ -74,7 +84,13 @@ pub fn to_bytes(model: &DekfModel) -> Result<Vec<u8>, ModelFileError> {
         .collect::<Result<Vec<_>, safetensors::SafeTensorError>>()?;
     let meta =
         serde_json::to_string(&model.meta).map_err(|e| ModelFileError::Metadata { detail: e.to_string() })?;
-    let info = HashMap::from([(META_KEY.to_string(), meta), (FORMAT_KEY.to_string(), FORMAT.to_string())]);
+    let arch = serde_json::to_string(model.architecture())
+        .map_err(|e| ModelFileError::Metadata { detail: e.to_string() })?;
+    let info = HashMap::from([
+        (META_KEY.to_string(), meta),
+        (ARCHITECTURE_KEY.to_string(), arch),
+        (FORMAT_KEY.to_string(), FORMAT.to_string()),
+    ]);
     Ok(with_sorted_header(safetensors::serialize(views, Some(info))?))
 }
 
@@ -119,11 +135,18 @@ fn with_sorted_header(bytes: Vec<u8>) -> Vec<u8> {
 pub fn from_bytes(bytes: &[u8]) -> Result<DekfModel, ModelFileError> {
     let st = SafeTensors::deserialize(bytes)?;
     let (_, header) = SafeTensors::read_metadata(bytes)?;
-    let meta_json = header
-        .metadata()
-        .as_ref()
+    let metadata = header.metadata().as_ref();
+    let meta_json = metadata
         .and_then(|m| m.get(META_KEY))
         .ok_or_else(|| ModelFileError::Metadata { detail: "not in the header".into() })?;
+    let arch = match metadata.and_then(|m| m.get(ARCHITECTURE_KEY)) {
+        None => Architecture::default(),
+        Some(json) => serde_json::from_str::<Architecture>(json)
+            .map_err(|e| ModelFileError::Architecture { detail: e.to_string() })?,
+    };
+    if let Some(detail) = arch.problem() {
+        return Err(ModelFileError::Architecture { detail });
+    }
     let meta: ModelMeta =
         serde_json::from_str(meta_json).map_err(|e| ModelFileError::Metadata { detail: e.to_string() })?;
     if meta.channels.is_empty() || !(meta.dt_s.is_finite() && meta.dt_s > 0.0) || meta.decimation == 0 {
@@ -131,7 +154,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<DekfModel, ModelFileError> {
             detail: "needs channels, a positive dt_s and decimation".into(),
         });
     }
-    let layout = Layout::new(meta.channels.len());
+    let layout = Layout::with_architecture(meta.channels.len(), &arch);
     let mut params = vec![0.0f32; layout.len];
     for e in &layout.entries {
         let bad = |detail: String| ModelFileError::Tensor { name: e.name.clone(), detail };
@@ -171,6 +194,10 @@ mod tests {
     use rand::SeedableRng;
 
     fn model() -> DekfModel {
+        model_with(&Architecture::default())
+    }
+
+    fn model_with(arch: &Architecture) -> DekfModel {
         let meta = ModelMeta {
             dt_s: 0.03,
             decimation: 3,
@@ -183,7 +210,87 @@ mod tests {
             training: serde_json::json!({"note": "test"}),
             software_version: "0".into(),
         };
-        DekfModel::new(meta, &mut rand::rngs::StdRng::seed_from_u64(1))
+        DekfModel::with_architecture(meta, arch, &mut rand::rngs::StdRng::seed_from_u64(1))
+    }
+
+    /// The metadata of `bytes`' safetensors header.
+    fn header_metadata(bytes: &[u8]) -> HashMap<String, String> {
+        let (_, header) = SafeTensors::read_metadata(bytes).unwrap();
+        header.metadata().clone().unwrap()
+    }
+
+    /// `bytes` with its header's metadata replaced by `metadata` (tensors kept).
+    fn with_metadata(bytes: &[u8], metadata: HashMap<String, String>) -> Vec<u8> {
+        let st = SafeTensors::deserialize(bytes).unwrap();
+        let tensors: Vec<(String, TensorView)> = st.tensors();
+        safetensors::serialize(tensors, Some(metadata)).unwrap()
+    }
+
+    #[test]
+    fn the_architecture_is_written_and_read_back() {
+        for arch in crate::dekf::mlp::tests::architectures() {
+            let m = model_with(&arch);
+            let bytes = to_bytes(&m).unwrap();
+            let meta = header_metadata(&bytes);
+            let written: serde_json::Value = serde_json::from_str(&meta[ARCHITECTURE_KEY]).unwrap();
+            assert_eq!(written["width"], arch.width);
+            assert_eq!(written["residual_blocks"], arch.residual_blocks);
+            assert_eq!(written["activation"], arch.activation.name());
+            let back = from_bytes(&bytes).unwrap();
+            assert_eq!(back.architecture(), &arch);
+            assert_eq!(back, m);
+            let st = SafeTensors::deserialize(&bytes).unwrap();
+            let shared = st.names().iter().filter(|n| n.starts_with("motion.shared.residual.")).count();
+            assert_eq!(shared, 4 * arch.residual_blocks, "{arch:?}");
+        }
+    }
+
+    /// A file written before the architecture was configurable has no
+    /// architecture key: it is the thesis's network, and loads as before.
+    #[test]
+    fn a_file_without_the_architecture_key_has_the_thesis_network() {
+        let m = model();
+        let mut meta = header_metadata(&to_bytes(&m).unwrap());
+        meta.remove(ARCHITECTURE_KEY);
+        let old = with_metadata(&to_bytes(&m).unwrap(), meta);
+        let back = from_bytes(&old).unwrap();
+        assert_eq!(back.architecture(), &Architecture::default());
+        assert_eq!(back, m);
+        // A smaller network without the key does not pass for the thesis's.
+        let small = model_with(&Architecture { width: 8, ..Architecture::default() });
+        let mut meta = header_metadata(&to_bytes(&small).unwrap());
+        meta.remove(ARCHITECTURE_KEY);
+        let e = from_bytes(&with_metadata(&to_bytes(&small).unwrap(), meta)).unwrap_err();
+        assert!(matches!(e, ModelFileError::Tensor { .. }), "{e}");
+    }
+
+    #[test]
+    fn a_bad_architecture_is_refused_with_the_reason() {
+        let m = model();
+        for (json, needle) in [
+            (r#"{"width": 64, "residual_blocks": 3, "activation": "sigmoid"}"#, "sigmoid"),
+            (r#"{"width": 0, "residual_blocks": 3, "activation": "relu"}"#, "width 0"),
+            (r#"{"width": 64, "residual_blocks": 1000, "activation": "relu"}"#, "1000"),
+            (r#"{"width": 64}"#, "residual_blocks"),
+        ] {
+            let mut meta = header_metadata(&to_bytes(&m).unwrap());
+            meta.insert(ARCHITECTURE_KEY.into(), json.into());
+            let e = from_bytes(&with_metadata(&to_bytes(&m).unwrap(), meta)).unwrap_err();
+            assert!(
+                matches!(e, ModelFileError::Architecture { .. }) && e.to_string().contains(needle),
+                "{e}"
+            );
+        }
+        // Tensors of another architecture than the metadata says.
+        let tanh = model_with(&Architecture {
+            activation: crate::dekf::params::Activation::Tanh,
+            residual_blocks: 2,
+            ..Architecture::default()
+        });
+        let mut meta = header_metadata(&to_bytes(&tanh).unwrap());
+        meta.insert(ARCHITECTURE_KEY.into(), serde_json::to_string(&Architecture::default()).unwrap());
+        let e = from_bytes(&with_metadata(&to_bytes(&tanh).unwrap(), meta)).unwrap_err();
+        assert!(e.to_string().contains("shared.residual.2") && e.to_string().contains("missing"), "{e}");
     }
 
     #[test]

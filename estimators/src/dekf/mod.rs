@@ -17,7 +17,10 @@ pub use bptt::{BatchGrad, Sequence, Window, batch_grad};
 pub use filter::{DekfOutput, DekfTracker, MIN_INNOVATION_VAR};
 pub use input::{DekfInput, InputStep};
 pub use model::{DekfModel, Measurement, ModelMeta};
-pub use train::{Batching, EpochReport, Progress, Selection, Stage, TrainConfig, train, train_with_selection};
+pub use params::{Activation, Architecture};
+pub use train::{
+    Batching, EpochReport, Progress, Selection, Stage, TrainConfig, train, train_with_selection,
+};
 
 #[cfg(test)]
 mod tests;

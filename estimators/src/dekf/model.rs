@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::ekf::{M2, q_from_cholesky};
-use super::params::Layout;
+use super::params::{Architecture, Layout};
 use crate::derivative::DerivativeFilterConfig;
 
 /// What the feature network reads.
@@ -63,11 +63,21 @@ pub struct DekfModel {
 }
 
 impl DekfModel {
-    /// A fresh (untrained) model.
+    /// A fresh (untrained) model with the thesis's networks.
     pub fn new(meta: ModelMeta, rng: &mut impl rand::Rng) -> DekfModel {
-        let layout = Layout::new(meta.channels.len());
+        DekfModel::with_architecture(meta, &Architecture::default(), rng)
+    }
+
+    /// A fresh (untrained) model with networks of `arch`.
+    pub fn with_architecture(meta: ModelMeta, arch: &Architecture, rng: &mut impl rand::Rng) -> DekfModel {
+        let layout = Layout::with_architecture(meta.channels.len(), arch);
         let params = layout.init(rng);
         DekfModel { layout, params, meta }
+    }
+
+    /// Width, depth and activation of the networks.
+    pub fn architecture(&self) -> &Architecture {
+        &self.layout.architecture
     }
 
     /// `Q = L_Q L_Q^T` (cm^2, cm^2/s^2).

@@ -4,9 +4,91 @@
 //! model file holds them row-major, as PyTorch does.
 
 use rand::{Rng, RngExt};
+use serde::{Deserialize, Serialize};
 
-/// Width of every hidden layer (Sec. 6.1.6).
+/// Width of every hidden layer of the thesis's networks (Sec. 6.1.6).
 pub const HIDDEN: usize = 64;
+
+/// Residual blocks of the `shared` part of the thesis's networks (Sec. 6.1.6).
+pub const THESIS_BLOCKS: usize = 3;
+
+/// Largest hidden width a model may have (a guard against absurd files).
+pub const MAX_WIDTH: usize = 4096;
+
+/// Largest number of residual blocks of `shared` a model may have.
+pub const MAX_BLOCKS: usize = 64;
+
+/// The nonlinearity of every hidden layer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Activation {
+    /// `max(x, 0)` (the thesis's). Piecewise linear: its second derivative
+    /// is zero wherever it is defined, so the networks' Jacobians are
+    /// piecewise constant.
+    #[default]
+    Relu,
+    /// `tanh(x)`: smooth, `tanh' = 1 - tanh^2`, `tanh'' = -2 tanh tanh'`.
+    Tanh,
+    /// GELU in its tanh approximation, `0.5 x (1 + tanh(sqrt(2/pi) (x +
+    /// 0.044715 x^3)))` (PyTorch's `nn.GELU(approximate="tanh")`): smooth.
+    Gelu,
+}
+
+impl Activation {
+    /// Every activation, in the order of the documentation.
+    pub const ALL: [Activation; 3] = [Activation::Relu, Activation::Tanh, Activation::Gelu];
+
+    /// `relu`, `tanh` or `gelu` (the name in the model file).
+    pub fn name(self) -> &'static str {
+        match self {
+            Activation::Relu => "relu",
+            Activation::Tanh => "tanh",
+            Activation::Gelu => "gelu",
+        }
+    }
+
+    /// False for an activation whose second derivative vanishes (ReLU):
+    /// then the Jacobian of a network does not depend on its input (between
+    /// kinks) and the second-order terms of the backward pass are zero.
+    pub fn has_curvature(self) -> bool {
+        !matches!(self, Activation::Relu)
+    }
+}
+
+/// The shape of the three networks: hidden width, residual blocks of
+/// `shared` and the activation (Sec. 6.1.6 has 64, 3 and ReLU; the encoder
+/// always has one residual block). Recorded in the model file's metadata
+/// (`docs/model-format.md`); a file without it has the thesis's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Architecture {
+    /// Width of every hidden layer.
+    pub width: usize,
+    /// Residual blocks after `shared.linear` (`shared.residual.0..`).
+    pub residual_blocks: usize,
+    /// The nonlinearity of every hidden layer.
+    pub activation: Activation,
+}
+
+impl Default for Architecture {
+    /// The thesis's: width 64, 3 shared residual blocks, ReLU.
+    fn default() -> Self {
+        Architecture { width: HIDDEN, residual_blocks: THESIS_BLOCKS, activation: Activation::Relu }
+    }
+}
+
+impl Architecture {
+    /// `None` when the architecture is usable, else what is wrong with it.
+    pub fn problem(&self) -> Option<String> {
+        if self.width == 0 || self.width > MAX_WIDTH {
+            return Some(format!("width {} is not in 1..={MAX_WIDTH}", self.width));
+        }
+        if self.residual_blocks > MAX_BLOCKS {
+            return Some(format!("{} residual blocks, at most {MAX_BLOCKS}", self.residual_blocks));
+        }
+        None
+    }
+}
 
 /// One named tensor of the layout.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -51,13 +133,50 @@ pub struct LinearAt {
     pub inp: usize,
 }
 
-/// The eleven linear layers of one network, in evaluation order:
+/// The linear layers of one network, in evaluation order:
 /// `encoder.linear`, `encoder.residual.fc1/fc2`, `shared.linear`,
-/// `shared.residual.{0,1,2}.fc1/fc2`, `shared.out`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// `shared.residual.{0..blocks}.fc1/fc2`, `shared.out` (11 for the thesis's
+/// three shared blocks), and its activation.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NetAt {
-    /// The layers.
-    pub layers: [LinearAt; 11],
+    /// The layers: `5 + 2 blocks` of them.
+    pub layers: Vec<LinearAt>,
+    /// The nonlinearity of every hidden layer.
+    pub activation: Activation,
+}
+
+impl NetAt {
+    /// `encoder.linear`.
+    pub fn encoder(&self) -> &LinearAt {
+        &self.layers[0]
+    }
+
+    /// Residual blocks in evaluation order (the encoder's first, then the
+    /// shared ones): `(fc1, fc2)`.
+    pub fn residual(&self, k: usize) -> (&LinearAt, &LinearAt) {
+        let first = if k == 0 { 1 } else { 2 + 2 * k };
+        (&self.layers[first], &self.layers[first + 1])
+    }
+
+    /// Residual blocks, the encoder's included.
+    pub fn residual_count(&self) -> usize {
+        (self.layers.len() - 3) / 2
+    }
+
+    /// `shared.linear` (no activation after it).
+    pub fn shared_linear(&self) -> &LinearAt {
+        &self.layers[3]
+    }
+
+    /// `shared.out`, `[1, width]`.
+    pub fn out(&self) -> &LinearAt {
+        &self.layers[self.layers.len() - 1]
+    }
+
+    /// The hidden width.
+    pub fn width(&self) -> usize {
+        self.layers[0].out
+    }
 }
 
 /// Where every tensor of a model with `channels` tactile inputs lives.
@@ -81,6 +200,8 @@ pub struct Layout {
     pub input_std: usize,
     /// Tactile inputs of NN3.
     pub channels: usize,
+    /// Width, depth and activation of the networks.
+    pub architecture: Architecture,
     /// Length of the flat vector.
     pub len: usize,
 }
@@ -105,32 +226,37 @@ impl Builder {
         LinearAt { weight, bias, out, inp }
     }
 
-    fn net(&mut self, name: &str, inp: usize) -> NetAt {
-        let h = HIDDEN;
-        let layers = [
+    fn net(&mut self, name: &str, inp: usize, arch: &Architecture) -> NetAt {
+        let h = arch.width;
+        let mut layers = vec![
             self.linear(&format!("{name}.encoder.linear"), h, inp),
             self.linear(&format!("{name}.encoder.residual.fc1"), h, h),
             self.linear(&format!("{name}.encoder.residual.fc2"), h, h),
             self.linear(&format!("{name}.shared.linear"), h, h),
-            self.linear(&format!("{name}.shared.residual.0.fc1"), h, h),
-            self.linear(&format!("{name}.shared.residual.0.fc2"), h, h),
-            self.linear(&format!("{name}.shared.residual.1.fc1"), h, h),
-            self.linear(&format!("{name}.shared.residual.1.fc2"), h, h),
-            self.linear(&format!("{name}.shared.residual.2.fc1"), h, h),
-            self.linear(&format!("{name}.shared.residual.2.fc2"), h, h),
-            self.linear(&format!("{name}.shared.out"), 1, h),
         ];
-        NetAt { layers }
+        for k in 0..arch.residual_blocks {
+            layers.push(self.linear(&format!("{name}.shared.residual.{k}.fc1"), h, h));
+            layers.push(self.linear(&format!("{name}.shared.residual.{k}.fc2"), h, h));
+        }
+        layers.push(self.linear(&format!("{name}.shared.out"), 1, h));
+        NetAt { layers, activation: arch.activation }
     }
 }
 
 impl Layout {
-    /// The layout of a model whose feature network reads `channels` inputs.
+    /// The layout of a model with the thesis's networks whose feature
+    /// network reads `channels` inputs.
     pub fn new(channels: usize) -> Layout {
+        Layout::with_architecture(channels, &Architecture::default())
+    }
+
+    /// The layout of a model with networks of `arch` whose feature network
+    /// reads `channels` inputs.
+    pub fn with_architecture(channels: usize, arch: &Architecture) -> Layout {
         let mut b = Builder { entries: Vec::new(), len: 0 };
-        let motion = b.net("motion", 2);
-        let measurement = b.net("measurement", 2);
-        let feature = b.net("feature", channels);
+        let motion = b.net("motion", 2, arch);
+        let measurement = b.net("measurement", 2, arch);
+        let feature = b.net("feature", channels, arch);
         let input_mean = b.add("feature.input_mean".into(), vec![channels], false);
         let input_std = b.add("feature.input_std".into(), vec![channels], false);
         let process_noise = b.add("process_noise.cholesky".into(), vec![2, 2], true);
@@ -145,6 +271,7 @@ impl Layout {
             input_mean,
             input_std,
             channels,
+            architecture: *arch,
             len: b.len,
         }
     }
@@ -211,5 +338,33 @@ mod tests {
         assert_eq!(l.entries.len(), 3 * 22 + 4);
         let total: usize = l.entries.iter().map(ParamEntry::len).sum();
         assert_eq!(total, l.len);
+        assert_eq!(l.architecture, Architecture::default());
+    }
+
+    #[test]
+    fn the_architecture_sets_the_widths_and_the_number_of_blocks() {
+        let arch = Architecture { width: 12, residual_blocks: 1, activation: Activation::Tanh };
+        let l = Layout::with_architecture(5, &arch);
+        // 3 networks x (5 + 2 x 1) layers x (weight + bias) + 4 others.
+        assert_eq!(l.entries.len(), 3 * 14 + 4);
+        assert_eq!(l.entry("feature.encoder.linear.weight").unwrap().shape, vec![12, 5]);
+        assert_eq!(l.entry("motion.shared.residual.0.fc2.weight").unwrap().shape, vec![12, 12]);
+        assert!(l.entry("motion.shared.residual.1.fc1.weight").is_none());
+        assert_eq!(l.entry("measurement.shared.out.weight").unwrap().shape, vec![1, 12]);
+        for net in [&l.motion, &l.measurement, &l.feature] {
+            assert_eq!(net.residual_count(), 2);
+            assert_eq!(net.activation, Activation::Tanh);
+            assert_eq!(net.width(), 12);
+        }
+        let names = |k: usize| {
+            let (a, b) = l.motion.residual(k);
+            let name = |at: &LinearAt| l.entries.iter().find(|e| e.offset == at.weight).unwrap().name.clone();
+            (name(a), name(b))
+        };
+        assert_eq!(names(0).0, "motion.encoder.residual.fc1.weight");
+        assert_eq!(names(1).1, "motion.shared.residual.0.fc2.weight");
+        let none = Layout::with_architecture(2, &Architecture { residual_blocks: 0, ..arch });
+        assert_eq!(none.motion.layers.len(), 5);
+        assert_eq!(none.motion.residual_count(), 1);
     }
 }

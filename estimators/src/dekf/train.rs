@@ -308,7 +308,9 @@ pub fn train_with_selection(
     let total_batches: usize = cfg
         .schedule
         .iter()
-        .map(|s| s.epochs * epoch_batches(data, s.length, cfg.batch_size, cfg.batching, &mut rng.clone()).len())
+        .map(|s| {
+            s.epochs * epoch_batches(data, s.length, cfg.batch_size, cfg.batching, &mut rng.clone()).len()
+        })
         .sum();
     let mut done = 0;
     let mut reports = Vec::new();

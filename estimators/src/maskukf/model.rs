@@ -6,6 +6,8 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::Point3;
 use thiserror::Error;
 
+use crate::orientation::Symmetry;
+
 /// Why a point model could not be built.
 #[derive(Clone, Debug, Error, PartialEq)]
 #[non_exhaustive]
@@ -36,6 +38,7 @@ const CLUSTER_CANDIDATES: usize = 8;
 pub struct ObjectPoints {
     points_in_object: Vec<Point3<f64>>,
     tree: ImmutableKdTree<f32, 3>,
+    symmetry: Symmetry,
 }
 
 impl std::fmt::Debug for ObjectPoints {
@@ -59,7 +62,19 @@ impl ObjectPoints {
             points_in_object.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect();
         let tree = ImmutableKdTree::new_from_slice(&coords)
             .map_err(|e| ModelError::Tree { detail: format!("{e:?}") })?;
-        Ok(ObjectPoints { points_in_object, tree })
+        Ok(ObjectPoints { points_in_object, tree, symmetry: Symmetry::None })
+    }
+
+    /// The same points with the shape's rotational symmetry (for the
+    /// metrics that discount it).
+    pub fn with_symmetry(mut self, symmetry: Symmetry) -> ObjectPoints {
+        self.symmetry = symmetry;
+        self
+    }
+
+    /// The shape's rotational symmetry ([`Symmetry::None`] unless given).
+    pub fn symmetry(&self) -> &Symmetry {
+        &self.symmetry
     }
 
     /// The points, object frame (m).

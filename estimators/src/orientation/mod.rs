@@ -6,8 +6,10 @@
 pub mod euler;
 pub mod pose;
 pub mod quaternion;
+pub mod symmetry;
 
 pub use pose::PoseVelocity;
+pub use symmetry::{Symmetry, rotation_error_modulo_symmetry_deg};
 
 use nalgebra::{DVector, Quaternion, UnitQuaternion, Vector3};
 

@@ -107,8 +107,11 @@ impl HandActuator for UndrivenHand {
 
 /// The simulated rig of `spec`'s trial, with its camera when asked for.
 pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
+    // In real time the clock starts when the trial first reads it: setting
+    // up the camera's renderer and the session takes a moment the simulated
+    // devices must not have spent already (their first scans would be stale).
     let clock: Arc<dyn Clock> =
-        if spec.realtime { Arc::new(WallClock::start()) } else { Arc::new(SimClock::new()) };
+        if spec.realtime { Arc::new(WallClock::start_on_first_use()) } else { Arc::new(SimClock::new()) };
     let object = spec.object;
     spec.rig.sim.check_object(object)?;
     let sim = SimDevices::new(&spec.rig.sim, object, spec.seed, spec.trial, clock.clone());
@@ -235,5 +238,37 @@ pub fn build_rig_with(kind: RigKind, spec: &TrialSpec, hand: HandUse) -> Result<
                  (the `devices` feature, Linux only)"
             )
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A real-time simulated rig whose set-up took a while (the camera's
+    /// renderer, the session file): its first scan is fresh, not the first
+    /// of a backlog the devices accumulated meanwhile (a trial with the
+    /// camera used to abort at once on data 400 ms old).
+    #[test]
+    fn a_real_time_rig_starts_its_clock_with_the_trial_not_at_set_up() {
+        let rig = RigConfig::default();
+        let object = ObjectConfig::load("box").expect("box");
+        let spec = TrialSpec {
+            rig: &rig,
+            object: &object,
+            seed: 1,
+            trial: 0,
+            duration_s: 1.0,
+            camera: false,
+            realtime: true,
+            overwrite: true,
+            path: PathBuf::from("unused.mcap"),
+            live: None,
+        };
+        let mut setup = build_sim_rig(&spec).expect("rig");
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        let scan = setup.rig.tactile.read().expect("scan");
+        let age_s = setup.rig.clock.now().secs_since(scan.t);
+        assert!(age_s < 0.1, "the first scan was {:.0} ms old", age_s * 1e3);
     }
 }

@@ -141,11 +141,8 @@ pub fn data(s: &StudySpec, stop: &AtomicBool) -> Result<Sets> {
             );
         }
         if let Some(labelling) = Protocol::labelling(s.truth) {
-            let unlabelled: Vec<PathBuf> = files
-                .iter()
-                .filter(|f| !has_topic(f, s.truth.topic()).unwrap_or(false))
-                .cloned()
-                .collect();
+            let unlabelled: Vec<PathBuf> =
+                files.iter().filter(|f| !has_topic(f, s.truth.topic()).unwrap_or(false)).cloned().collect();
             if !unlabelled.is_empty() {
                 eprintln!(
                     "{object}: labelling {} sessions ({} protocol, {})",

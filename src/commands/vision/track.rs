@@ -68,6 +68,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         if let Some(truth) = sample.truth {
             results.push(TrackedFrame {
                 truth,
+                flow_velocity: state.as_ref().and_then(|s| s.flow_velocity),
                 estimate: state.map(|s| s.estimate),
                 last_measured_pose: last_pose,
             });

@@ -1,12 +1,15 @@
 //! RGB-D inputs: recorded sessions ([`SessionRgbd`]), YCB-Video-style
 //! directories of PNGs ([`YcbDirectory`]) and live cameras, a colour camera paired with a Z16 depth camera
-//! ([`CameraPair`], for example two V4L2 devices).
+//! ([`CameraPair`], for example two V4L2 devices), and depth registered to
+//! the colour camera ([`register_depth_to_color`]).
 
 mod camera_pair;
+pub mod registration;
 mod session;
 mod ycb;
 
 pub use camera_pair::CameraPair;
+pub use registration::register_depth_to_color;
 pub use session::SessionRgbd;
 pub use ycb::{YCB_CLASSES, YcbDirectory, YcbMeta, read_meta};
 

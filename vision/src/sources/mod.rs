@@ -4,10 +4,11 @@
 //! RGB-D frame and hands over what arrived by that frame's time:
 //!
 //! - [`SlowNetwork`]: the simulated rig's imitation of such networks, from
-//!   the ground truth with noise, outliers and a delay (5 fps, 200 ms late
-//!   by default);
+//!   the ground truth with noise, outliers, imperfect masks and a delay (5
+//!   fps, 200 ms late by default); with [`SlowNetworkConfig::exact`] the
+//!   delayed ground truth of the "GT" rows of Table 5.6;
 //! - [`TruthSource`]: the ground truth of every frame, without delay (the
-//!   "ideal" inputs of Table 5.6, and the label masks of YCB-Video);
+//!   label masks of YCB-Video, `vision track --measurements truth`);
 //! - [`FileSequence`]: masks and poses listed in CSV files of a directory;
 //! - [`SessionMeasurements`]: the `/vision/mask` and `/vision/pose` channels
 //!   of a session.

@@ -1,8 +1,14 @@
 //! [`SlowNetwork`]: an imitation of a segmentation and pose-estimation
 //! network that is slow (thesis Sec. 5.5.3: Mask R-CNN and DOPE at 5 fps,
 //! 200 ms late). It takes a frame when it is idle, works on it for
-//! `latency_s`, and delivers the frame's true mask and a noisy pose (with
-//! occasional gross outliers) when it is done; then it takes the newest frame.
+//! `latency_s`, and delivers a mask and a pose of that frame when it is done;
+//! then it takes the newest frame. The pose is the truth with noise and
+//! occasional gross outliers; the mask is the true mask made imperfect as a
+//! segmentation network's are ([`MaskErrors`]: grown or shrunk by a few
+//! pixels, ragged at the boundary, now and then missing). Every error is
+//! drawn from a seeded generator, so a run is repeatable.
+//! [`SlowNetworkConfig::exact`] keeps the timing and drops every error: the
+//! delayed ground truth of the "GT" rows of Table 5.6.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use slidetrack_core::TimeNs;
@@ -27,15 +33,15 @@ pub struct SlowNetworkConfig {
     pub outlier_position_m: [f64; 2],
     /// Range of the rotation error of an outlier (deg).
     pub outlier_rotation_deg: [f64; 2],
-    /// Pixels the delivered mask is eroded by (negative: dilated).
-    pub mask_erosion_px: i32,
+    /// How the delivered masks differ from the true ones.
+    pub mask_errors: MaskErrors,
     /// Seed of the errors.
     pub seed: u64,
 }
 
 impl Default for SlowNetworkConfig {
     /// 5 fps and 200 ms late, 1.5 cm and 6 degrees of error, 8% outliers
-    /// of 15-35 cm and 60-180 degrees.
+    /// of 15-35 cm and 60-180 degrees, the masks of [`MaskErrors::default`].
     fn default() -> SlowNetworkConfig {
         SlowNetworkConfig {
             latency_s: 0.2,
@@ -44,17 +50,62 @@ impl Default for SlowNetworkConfig {
             outlier_probability: 0.08,
             outlier_position_m: [0.15, 0.35],
             outlier_rotation_deg: [60.0, 180.0],
-            mask_erosion_px: 0,
+            mask_errors: MaskErrors::default(),
             seed: 0x6e65_7477,
         }
     }
 }
 
+impl SlowNetworkConfig {
+    /// The same timing without any error: true poses and true masks,
+    /// `latency_s` late (ground truth delivered as the network would).
+    pub fn exact(&self) -> SlowNetworkConfig {
+        SlowNetworkConfig {
+            position_noise_m: 0.0,
+            rotation_noise_deg: 0.0,
+            outlier_probability: 0.0,
+            mask_errors: MaskErrors::NONE,
+            ..self.clone()
+        }
+    }
+}
+
+/// How the imitated segmentation differs from the true mask, per result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaskErrors {
+    /// The mask is shrunk (eroded) or grown (dilated) by a whole number of
+    /// pixels drawn uniformly from `-max_shift_px..=max_shift_px`.
+    pub max_shift_px: u32,
+    /// Each pixel on the boundary of the shifted mask (inside with a
+    /// neighbour outside, or outside with a neighbour inside) flips with
+    /// this probability: a ragged outline.
+    pub boundary_flip_probability: f64,
+    /// The probability that the network finds no object: no mask is
+    /// delivered for that frame (the pose still is).
+    pub miss_probability: f64,
+}
+
+impl MaskErrors {
+    /// The true masks.
+    pub const NONE: MaskErrors =
+        MaskErrors { max_shift_px: 0, boundary_flip_probability: 0.0, miss_probability: 0.0 };
+}
+
+impl Default for MaskErrors {
+    /// Up to 3 px too large or too small, half of the outline flipped, 5% missed.
+    fn default() -> MaskErrors {
+        MaskErrors { max_shift_px: 3, boundary_flip_probability: 0.5, miss_probability: 0.05 }
+    }
+}
+
+/// A result on its way: its mask (`None` when the object was missed) and pose.
+type InFlight = (Option<Delayed<Mask>>, Delayed<Isometry3<f64>>);
+
 /// The imitated network.
 pub struct SlowNetwork {
     config: SlowNetworkConfig,
     busy_until: Option<TimeNs>,
-    in_flight: Option<(Delayed<Mask>, Delayed<Isometry3<f64>>)>,
+    in_flight: Option<InFlight>,
     rng: u64,
     delivered_outliers: usize,
 }
@@ -86,6 +137,23 @@ impl SlowNetwork {
         v.try_normalize(1e-9).unwrap_or_else(Vector3::x)
     }
 
+    /// The network's mask for a frame whose true mask is `truth`: `None`
+    /// when the network misses the object.
+    fn segment(&mut self, truth: &Mask) -> Option<Mask> {
+        let e = self.config.mask_errors.clone();
+        // Draw every number whatever the outcome, so that the poses do not
+        // depend on the mask settings.
+        let missed = self.uniform() < e.miss_probability;
+        let span = 2 * i64::from(e.max_shift_px) + 1;
+        let shift = (self.uniform() * span as f64).floor() as i64 - i64::from(e.max_shift_px);
+        let seed = splitmix64(self.rng ^ 0x6d61_736b);
+        if missed {
+            return None;
+        }
+        let shifted = morph(truth, shift.clamp(-64, 64) as i32);
+        Some(ragged(&shifted, e.boundary_flip_probability, seed))
+    }
+
     /// The network's pose for a frame whose true pose is `truth`.
     fn estimate(&mut self, truth: &Isometry3<f64>) -> (Isometry3<f64>, bool) {
         let c = self.config.clone();
@@ -111,8 +179,8 @@ impl SlowNetwork {
 impl MeasurementSource for SlowNetwork {
     fn on_frame(&mut self, t: TimeNs, truth: Option<FrameTruth<'_>>) -> Result<Arrivals, VisionError> {
         let mut out = Arrivals::default();
-        if let Some((mask, pose)) = self.in_flight.take_if(|(m, _)| m.arrival_t <= t) {
-            out.masks.push(mask);
+        if let Some((mask, pose)) = self.in_flight.take_if(|(_, p)| p.arrival_t <= t) {
+            out.masks.extend(mask);
             out.poses.push(pose);
         }
         let idle = self.busy_until.is_none_or(|b| b <= t);
@@ -120,13 +188,13 @@ impl MeasurementSource for SlowNetwork {
             let arrival_t = TimeNs(t.0 + (self.config.latency_s.max(0.0) * 1e9).round() as u64);
             let (pose, outlier) = self.estimate(truth.camera_from_object);
             self.delivered_outliers += usize::from(outlier);
-            let mask = morph(truth.mask, self.config.mask_erosion_px);
+            let mask = self.segment(truth.mask);
             let result = (
-                Delayed { frame_t: t, arrival_t, value: mask },
+                mask.map(|value| Delayed { frame_t: t, arrival_t, value }),
                 Delayed { frame_t: t, arrival_t, value: pose },
             );
             if arrival_t <= t {
-                out.masks.push(result.0);
+                out.masks.extend(result.0);
                 out.poses.push(result.1);
             } else {
                 self.in_flight = Some(result);
@@ -158,6 +226,34 @@ pub(crate) fn morph(mask: &Mask, px: i32) -> Mask {
         m = next;
     }
     m
+}
+
+/// `mask` with each pixel of its boundary flipped with probability
+/// `probability` (a generator seeded with `seed`).
+fn ragged(mask: &Mask, probability: f64, seed: u64) -> Mask {
+    let Some(region) = mask.bounding_box().filter(|_| probability > 0.0) else {
+        return mask.clone();
+    };
+    let region = region.grown(1, mask.width(), mask.height());
+    let mut bytes = mask.to_bytes();
+    let mut rng = seed;
+    for v in region.v0..region.v1 {
+        for u in region.u0..region.u1 {
+            let inside = mask.contains(u, v);
+            let neighbours = [(u.wrapping_sub(1), v), (u + 1, v), (u, v.wrapping_sub(1)), (u, v + 1)];
+            let boundary = neighbours
+                .iter()
+                .any(|(a, b)| *a < mask.width() && *b < mask.height() && mask.contains(*a, *b) != inside);
+            if boundary {
+                rng = splitmix64(rng);
+                if ((rng >> 11) as f64 + 0.5) / ((1u64 << 53) as f64) < probability {
+                    let i = (v * mask.width() + u) as usize;
+                    bytes[i] = u8::from(!inside);
+                }
+            }
+        }
+    }
+    Mask::from_bytes(mask.width(), mask.height(), &bytes).unwrap_or_else(|| mask.clone())
 }
 
 fn splitmix64(state: u64) -> u64 {
@@ -218,6 +314,52 @@ mod tests {
         }
         assert_eq!(gross, net.outliers_delivered());
         assert!((60..140).contains(&gross), "{gross}");
+    }
+
+    /// The imitated masks differ from the truth as a network's do, the same
+    /// way for the same seed; `exact` delivers the truth with the same timing.
+    #[test]
+    fn masks_are_shifted_ragged_and_sometimes_missing_but_repeatable() {
+        let (w, h) = (120, 90);
+        let mut truth_mask = Mask::empty(w, h);
+        for v in 20..70 {
+            for u in 30..90 {
+                truth_mask.insert(u, v);
+            }
+        }
+        let pose = Isometry3::identity();
+        let run = |config: SlowNetworkConfig| {
+            let mut net = SlowNetwork::new(config);
+            (0..400u64)
+                .map(|k| {
+                    let a = net
+                        .on_frame(
+                            TimeNs(k + 1),
+                            Some(FrameTruth { camera_from_object: &pose, mask: &truth_mask }),
+                        )
+                        .unwrap();
+                    assert_eq!(a.poses.len(), 1, "a pose for every result");
+                    a.masks.first().map(|m| m.value.clone())
+                })
+                .collect::<Vec<_>>()
+        };
+        let config = SlowNetworkConfig { latency_s: 0.0, ..SlowNetworkConfig::default() };
+        let masks = run(config.clone());
+        assert_eq!(masks, run(config.clone()), "seeded");
+        let missed = masks.iter().filter(|m| m.is_none()).count();
+        assert!((8..40).contains(&missed), "{missed} of 400 missed at 5%");
+        let mut counts = std::collections::BTreeSet::new();
+        for m in masks.iter().flatten() {
+            assert_ne!(m, &truth_mask);
+            // Shifted by at most 3 px and ragged: within the 4 px band.
+            let (inner, outer) = (morph(&truth_mask, 4), morph(&truth_mask, -4));
+            assert!(inner.pixels().all(|(u, v)| m.contains(u, v)));
+            assert!(m.pixels().all(|(u, v)| outer.contains(u, v)));
+            counts.insert(m.count() / 200);
+        }
+        assert!(counts.len() >= 5, "sizes vary: {counts:?}");
+        let exact = run(config.exact());
+        assert!(exact.iter().all(|m| m.as_ref() == Some(&truth_mask)));
     }
 
     #[test]
