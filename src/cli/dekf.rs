@@ -152,6 +152,13 @@ pub struct TrainArgs {
     /// The networks' activation (Sec. 6.1.6: relu).
     #[arg(long, value_enum, default_value_t = ActivationArg::Relu)]
     pub activation: ActivationArg,
+    /// A protocol's training settings at once: `thesis` is Sec. 6.2.4 as
+    /// written (no `--position-shift`, the last epoch, no `--outlier-gate`)
+    /// and, unless `--truth` says otherwise, the thesis's ground truth
+    /// (`/ground_truth/thesis/sliding`, from `slidetrack label --thesis
+    /// --slot thesis`); `default` is this project's (the defaults below).
+    #[arg(long, value_enum, conflicts_with_all = ["position_shift", "no_select", "outlier_gate"])]
+    pub protocol: Option<ProtocolArg>,
     /// Shift each training window by a random offset along the sliding axis,
     /// uniform in +-this (cm), so that the networks cannot tie their output to
     /// where the object happens to be (see the README); 0 keeps the recorded
@@ -171,9 +178,10 @@ pub struct TrainArgs {
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Truth to train against: the ArUco ground truth or the simulator's.
-    #[arg(long, value_enum, default_value_t = TruthArg::GroundTruth)]
-    pub truth: TruthArg,
+    /// Truth to train against: the ArUco ground truth (default, or the
+    /// thesis protocol's with `--protocol thesis`) or the simulator's.
+    #[arg(long, value_enum)]
+    pub truth: Option<TruthArg>,
     /// Also plot the training curve (state RMSE per epoch, Fig. 6.6).
     #[arg(long)]
     pub plot: Option<PathBuf>,
