@@ -52,7 +52,7 @@ pub const ALLOWED_DEPENDENCIES: &[Rule] = &[
     rule("session",     &["core"],                                                         &["sim"]),
     rule("drivers",     &["core"],                                                         &["sim"]),
     rule("calibration", &["core", "session", "estimators"],                                &["sim"]),
-    rule("vision",      &["core", "render", "session", "estimators"],                      &["sim"]),
+    rule("vision",      &["core", "render", "session", "estimators", "calibration"],       &["sim"]),
     rule("live",        &["core", "session"],                                              &[]),
     rule("experiment",  &["core", "render", "sim", "session", "drivers", "estimators",
                           "control", "calibration", "vision"],                             &[]),

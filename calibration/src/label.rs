@@ -1,14 +1,15 @@
 //! Labelling a session: read its marker detections and tactile scan times,
 //! build the ground truth ([`crate::ground_truth`]) and write it into the
-//! file as `/ground_truth/sliding` and `/ground_truth/measurements`,
-//! rewriting the file atomically (every other record unchanged).
+//! file as `/ground_truth/sliding` and `/ground_truth/measurements` (or,
+//! for a second ground truth kept beside the first, under
+//! `/ground_truth/thesis/`: [`GroundTruthSlot`]), rewriting the file
+//! atomically (every other record unchanged).
 
 use std::path::{Path, PathBuf};
 
 use slidetrack_core::TimeNs;
 use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams};
 use slidetrack_estimators::cv_tune::{TunedNoise, tune_noise};
-use slidetrack_session::ground_truth::GROUND_TRUTH_PREFIX;
 use slidetrack_session::{
     ArucoDetection, ChannelMessage, GroundTruthMeasurement, GroundTruthSliding, MessageReader, NewChannel,
     ProtocolEvent, ReadOptions, SESSION_METADATA, SessionError, SessionInfo, SimTruth, TactileRaw,
@@ -35,6 +36,41 @@ pub struct LabelOptions {
     /// Estimate `q_p`, `q_v` and `R` from the session's marker positions
     /// (maximum likelihood, starting from `params`) instead of using `params`'.
     pub tune: bool,
+    /// The channels written (and replaced).
+    pub slot: GroundTruthSlot,
+}
+
+/// The pair of channels a labelling writes. A session can hold one ground
+/// truth per slot: labelling replaces the two channels of its own slot and
+/// keeps every other, so that the default protocol's ground truth and the
+/// thesis protocol's (`slidetrack study --protocol`) live side by side.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GroundTruthSlot {
+    /// `/ground_truth/sliding` and `/ground_truth/measurements`, what
+    /// `train`, `eval`, `replay` and the plots read.
+    #[default]
+    Default,
+    /// `/ground_truth/thesis/sliding` and `/ground_truth/thesis/measurements`
+    /// (same messages and metadata).
+    Thesis,
+}
+
+impl GroundTruthSlot {
+    /// The topic of the smoothed state.
+    pub const fn sliding_topic(self) -> &'static str {
+        match self {
+            GroundTruthSlot::Default => GroundTruthSliding::TOPIC,
+            GroundTruthSlot::Thesis => "/ground_truth/thesis/sliding",
+        }
+    }
+
+    /// The topic of the marker positions used.
+    pub const fn measurements_topic(self) -> &'static str {
+        match self {
+            GroundTruthSlot::Default => GroundTruthMeasurement::TOPIC,
+            GroundTruthSlot::Thesis => "/ground_truth/thesis/measurements",
+        }
+    }
 }
 
 /// What a labelling did.
@@ -224,15 +260,19 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
     let metadata = record.channel_metadata();
     let encode = |source| LabelError::Encode { path: path.to_path_buf(), source };
     let mut sliding_channel = NewChannel::of::<GroundTruthSliding>(metadata.clone());
+    sliding_channel.topic = options.slot.sliding_topic().to_string();
     for (t, m) in &sliding {
         sliding_channel.push_json(*t, m).map_err(encode)?;
     }
     let mut measurement_channel = NewChannel::of::<GroundTruthMeasurement>(metadata);
+    measurement_channel.topic = options.slot.measurements_topic().to_string();
     for (t, m) in &used {
         measurement_channel.push_json(*t, m).map_err(encode)?;
     }
-    let is_ground_truth = |topic: &str| topic.starts_with(GROUND_TRUTH_PREFIX);
-    rewrite_session(path, read, &is_ground_truth, vec![sliding_channel, measurement_channel])?;
+    // Only this slot's channels: the other slot's ground truth stays.
+    let slot = options.slot;
+    let replaced = |topic: &str| topic == slot.sliding_topic() || topic == slot.measurements_topic();
+    rewrite_session(path, read, &replaced, vec![sliding_channel, measurement_channel])?;
     report.written = true;
     Ok(report)
 }

@@ -7,6 +7,7 @@ mod protocol;
 mod reference;
 mod runner;
 mod safety;
+mod spike_gate;
 
 pub use gripper::{GripperControlConfig, GripperGrasp};
 pub use pi::{PiConfig, PiController, PiLaw, PiOutput};
@@ -17,3 +18,4 @@ pub use protocol::{
 pub use reference::{GraspProfile, partition, partition_two_opposed};
 pub use runner::{ObserverError, Rig, TrialObserver, TrialOutcome, run_trial};
 pub use safety::{AbortReason, SafetyConfig};
+pub use spike_gate::{ZSpikeGate, ZSpikeGateConfig};

@@ -14,6 +14,7 @@ use crate::gripper::{GripperControlConfig, GripperGrasp};
 use crate::pi::{PiConfig, PiController};
 use crate::reference::{GraspProfile, partition, partition_two_opposed};
 use crate::safety::{AbortReason, SafetyConfig};
+use crate::spike_gate::{ZSpikeGate, ZSpikeGateConfig};
 
 /// Settings of the protocol that do not depend on the object (the
 /// `[protocol]` table of a rig TOML; every field has a default).
@@ -42,6 +43,9 @@ pub struct ProtocolSettings {
     pub gripper: GripperControlConfig,
     /// Safety limits.
     pub safety: SafetyConfig,
+    /// The gate of the z readings the grasp is regulated on, against
+    /// isolated tactile spikes (during the ramp, the settling and the cycles).
+    pub z_spike_gate: ZSpikeGateConfig,
 }
 
 impl Default for ProtocolSettings {
@@ -58,6 +62,7 @@ impl Default for ProtocolSettings {
             pi: PiConfig::default(),
             gripper: GripperControlConfig::default(),
             safety: SafetyConfig::default(),
+            z_spike_gate: ZSpikeGateConfig::default(),
         }
     }
 }
@@ -185,6 +190,7 @@ pub struct Protocol {
     /// Consecutive saturated scans per watched taxel and axis.
     saturated_scans: Vec<[u32; 3]>,
     abort: Option<AbortReason>,
+    z_gate: ZSpikeGate,
 }
 
 impl Protocol {
@@ -216,6 +222,7 @@ impl Protocol {
             }
         }
         Protocol {
+            z_gate: ZSpikeGate::new(cfg.settings.z_spike_gate.clone()),
             cfg,
             phase: Phase::Zero,
             phase_start: TimeNs::ZERO,
@@ -338,6 +345,11 @@ impl Protocol {
         None
     }
 
+    /// Readings of the grasp controller held by its spike gate so far.
+    pub fn z_readings_held(&self) -> u64 {
+        self.z_gate.held_total()
+    }
+
     /// Processes one tactile scan.
     pub fn on_tactile(&mut self, sample: &TactileSample) -> ScanOutput {
         let mut out = ScanOutput::default();
@@ -402,6 +414,13 @@ impl Protocol {
     }
 
     fn control_tick(&mut self, t: TimeNs, z: [f64; 3], dt_s: f64, out: &mut ScanOutput) {
+        // The grasp is regulated on gated readings; contact is found on raw ones.
+        let z = if matches!(self.phase, Phase::Ramp | Phase::Settle | Phase::Cycles) {
+            self.z_gate.filter(z)
+        } else {
+            self.z_gate.reset();
+            z
+        };
         let threshold = self.cfg.settings.contact_threshold_counts;
         let (reference, desired, command) = match self.phase {
             Phase::Close => match self.close_tick(t, z, dt_s, out) {

@@ -7,6 +7,7 @@ use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 
 use crate::channels::recorded_tactile;
+use slidetrack_calibration::label::GroundTruthSlot;
 use slidetrack_core::{TactileInfo, TimeNs};
 use slidetrack_session::{
     ChannelMessage, MessageReader, ProtocolEvent, ReadOptions, SessionInfo, TactileRaw, TactileZeroed,
@@ -67,11 +68,19 @@ impl ChannelSet {
     }
 }
 
+/// Topic of the ground truth of the thesis protocol, written by
+/// `slidetrack label --thesis --slot thesis` beside [`GROUND_TRUTH_TOPIC`].
+pub const THESIS_GROUND_TRUTH_TOPIC: &str = GroundTruthSlot::Thesis.sliding_topic();
+
 /// Which truth to train and score against.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TruthSource {
-    /// `/ground_truth/sliding` from `slidetrack label` (the thesis's protocol).
+    /// `/ground_truth/sliding` from `slidetrack label` (the marker smoothed
+    /// as thesis Sec. 6.2.3 describes, with this project's parameters).
     GroundTruth,
+    /// `/ground_truth/thesis/sliding` from `slidetrack label --thesis --slot
+    /// thesis`: the same smoother with the thesis's parameters.
+    ThesisGroundTruth,
     /// `/sim/truth`, the simulator's own (simulated sessions only).
     Sim,
 }
@@ -81,8 +90,14 @@ impl TruthSource {
     pub fn topic(self) -> &'static str {
         match self {
             TruthSource::GroundTruth => GROUND_TRUTH_TOPIC,
+            TruthSource::ThesisGroundTruth => THESIS_GROUND_TRUTH_TOPIC,
             TruthSource::Sim => SIM_TRUTH_TOPIC,
         }
+    }
+
+    /// A ground truth of `slidetrack label` (from the marker), not the simulator's.
+    pub fn is_labelled(self) -> bool {
+        self != TruthSource::Sim
     }
 }
 
@@ -179,10 +194,12 @@ pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
         None => None,
         Some(source) => {
             if !declared.iter().any(|t| t == source.topic()) {
-                let hint = if source == TruthSource::GroundTruth {
-                    "; run `slidetrack label` on it first"
-                } else {
-                    ""
+                let hint = match source {
+                    TruthSource::GroundTruth => "; run `slidetrack label` on it first",
+                    TruthSource::ThesisGroundTruth => {
+                        "; run `slidetrack label --thesis --slot thesis` on it first"
+                    }
+                    TruthSource::Sim => "",
                 };
                 bail!("{} has no {}{hint}", path.display(), source.topic());
             }

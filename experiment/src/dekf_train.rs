@@ -6,8 +6,8 @@ use anyhow::{Context, Result, bail};
 use rand::SeedableRng;
 use serde_json::json;
 use slidetrack_estimators::dekf::{
-    Architecture, DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence, Stage,
-    TrainConfig, train_with_selection,
+    Architecture, Batching, DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence,
+    Stage, TrainConfig, train_with_selection,
 };
 use slidetrack_estimators::derivative::{DEFAULT_OUTLIER_GATE_SIGMA, DerivativeFilterConfig};
 
@@ -19,6 +19,9 @@ use crate::dekf_run::{DEFAULT_RATE_TOLERANCE, Inputs, RATE_TOLERANCE_KEY, inputs
 /// sessions (held-out box sessions: 35 % of the zero-motion baseline's RMSE
 /// instead of 16 %).
 pub const DEFAULT_POSITION_SHIFT_CM: f64 = 20.0;
+
+/// Default `--clip-norm`.
+pub const DEFAULT_CLIP_NORM: f64 = 10.0;
 
 /// Training sessions the epoch selection runs whole.
 const SELECTION_SESSIONS: usize = 8;
@@ -36,12 +39,20 @@ pub struct TrainSpec {
     pub schedule: Vec<Stage>,
     /// Subsequences per batch.
     pub batch: usize,
+    /// How the windows are grouped into batches.
+    pub batching: Batching,
     /// Adam's learning rate.
     pub learning_rate: f64,
+    /// Largest global norm of a batch's gradient (larger ones are scaled
+    /// down); `None`: no clipping.
+    pub clip_norm: Option<f64>,
     /// Seed of initialisation, shuffling and initial-state draws.
     pub seed: u64,
     /// Random shift of each window along the sliding axis, uniform in +- this (cm).
     pub position_shift_cm: f64,
+    /// Normalise each input channel by its mean and standard deviation over
+    /// the training data (stored in the model); otherwise mean 0, std 1.
+    pub normalise_inputs: bool,
     /// Keep the epoch whose filter tracks whole training sessions best
     /// (second half of the schedule); otherwise the last epoch.
     pub select_epoch: bool,
@@ -73,9 +84,12 @@ impl Default for TrainSpec {
             rate_hz: 30.0,
             schedule: [2, 4, 8, 16, 32].map(|length| Stage { length, epochs: 5 }).to_vec(),
             batch: 32,
+            batching: Batching::Windows,
             learning_rate: 1e-3,
+            clip_norm: Some(DEFAULT_CLIP_NORM),
             seed: 1,
             position_shift_cm: DEFAULT_POSITION_SHIFT_CM,
+            normalise_inputs: true,
             select_epoch: true,
             threads: 0,
             truth: TruthSource::GroundTruth,
@@ -183,8 +197,10 @@ fn new_model(
         &spec.architecture,
         &mut rand_chacha::ChaCha8Rng::seed_from_u64(spec.seed),
     );
-    let (mean, std) = normalisation(&prepared.iter().collect::<Vec<_>>(), channels.len());
-    model.set_input_normalisation(&mean, &std);
+    if spec.normalise_inputs {
+        let (mean, std) = normalisation(&prepared.iter().collect::<Vec<_>>(), channels.len());
+        model.set_input_normalisation(&mean, &std);
+    }
     let data = prepared.iter().map(|p| sequence(&model, p)).collect::<Result<Vec<_>>>()?;
     Ok((model, data))
 }
@@ -211,7 +227,9 @@ pub fn fit_sessions(
     let cfg = TrainConfig {
         schedule: spec.schedule.clone(),
         batch_size: spec.batch.max(1),
+        batching: spec.batching,
         learning_rate: spec.learning_rate,
+        clip_norm: spec.clip_norm,
         seed: spec.seed,
         threads: spec.threads,
         position_shift_cm: spec.position_shift_cm,

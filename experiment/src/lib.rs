@@ -13,6 +13,7 @@ pub mod marker;
 pub mod observer;
 pub mod pipeline;
 pub mod plot;
+pub mod protocol;
 pub mod record;
 pub mod replay;
 pub mod rig;

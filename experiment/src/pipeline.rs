@@ -7,10 +7,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
-use slidetrack_calibration::ground_truth::{AxisSource, default_params};
+use slidetrack_calibration::ground_truth::AxisSource;
 use slidetrack_calibration::label::{LabelOptions, label_session};
 use slidetrack_sim::ObjectConfig;
 
+use crate::protocol::Protocol;
 use crate::rig::TrialSpec;
 use crate::rig_config::RigConfig;
 use crate::trial::{TrialReport, prepare_out_dir, run_sim_trial, session_file_name};
@@ -123,14 +124,16 @@ pub fn collect(
     })
 }
 
-/// Labels `files` with the default ground-truth parameters, `threads` at a time.
-pub fn label(files: &[PathBuf], threads: usize, stop: &AtomicBool) -> Result<()> {
+/// Labels `files` with the ground truth of `protocol` (its smoother's
+/// parameters, into its own channels), `threads` at a time.
+pub fn label(files: &[PathBuf], protocol: Protocol, threads: usize, stop: &AtomicBool) -> Result<()> {
     let options = LabelOptions {
-        params: default_params(),
+        params: protocol.label_params(),
         axis: AxisSource::Recorded,
         recover: false,
         dry_run: false,
         tune: false,
+        slot: protocol.slot(),
     };
     parallel("label", files, threads, stop, |f| {
         label_session(f, &options).with_context(|| format!("cannot label {}", f.display()))?;

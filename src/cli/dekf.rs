@@ -3,16 +3,20 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use slidetrack_estimators::dekf::{Activation, Measurement};
+use slidetrack_estimators::dekf::{Activation, Batching, Measurement};
 use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
 use slidetrack_experiment::dataset::TruthSource;
-use slidetrack_experiment::dekf_train::DEFAULT_POSITION_SHIFT_CM;
+use slidetrack_experiment::dekf_train::{DEFAULT_CLIP_NORM, DEFAULT_POSITION_SHIFT_CM};
+use slidetrack_experiment::protocol::Protocol;
 
 /// Which truth to train and score against, on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum TruthArg {
-    /// `/ground_truth/sliding` from `slidetrack label` (the thesis's protocol).
+    /// `/ground_truth/sliding` from `slidetrack label`.
     GroundTruth,
+    /// `/ground_truth/thesis/sliding` from `slidetrack label --thesis --slot
+    /// thesis` (the smoother with the thesis's parameters).
+    ThesisGroundTruth,
     /// `/sim/truth`, the simulator's own (simulated sessions only).
     Sim,
 }
@@ -21,7 +25,46 @@ impl From<TruthArg> for TruthSource {
     fn from(t: TruthArg) -> TruthSource {
         match t {
             TruthArg::GroundTruth => TruthSource::GroundTruth,
+            TruthArg::ThesisGroundTruth => TruthSource::ThesisGroundTruth,
             TruthArg::Sim => TruthSource::Sim,
+        }
+    }
+}
+
+/// How `train` groups windows into batches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BatchingArg {
+    /// Every window of every session shuffled together.
+    Windows,
+    /// Sets of sessions, one window position of each per batch.
+    Sequences,
+}
+
+impl From<BatchingArg> for Batching {
+    fn from(b: BatchingArg) -> Batching {
+        match b {
+            BatchingArg::Windows => Batching::Windows,
+            BatchingArg::Sequences => Batching::Sequences,
+        }
+    }
+}
+
+/// A protocol of `study`, on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ProtocolArg {
+    /// This project's: ground truth with the smoother's defaults and the
+    /// 5-sigma gate, windows shifted along the axis, best epoch kept.
+    Default,
+    /// Thesis Sec. 6.2.3-6.2.4 as written: the thesis's smoother (into
+    /// `/ground_truth/thesis/...`), no shift, the last epoch.
+    Thesis,
+}
+
+impl From<ProtocolArg> for Protocol {
+    fn from(p: ProtocolArg) -> Protocol {
+        match p {
+            ProtocolArg::Default => Protocol::Default,
+            ProtocolArg::Thesis => Protocol::Thesis,
         }
     }
 }
@@ -84,9 +127,18 @@ pub struct TrainArgs {
     /// Subsequences per batch.
     #[arg(long, default_value_t = 32)]
     pub batch: usize,
+    /// How windows are grouped into batches: `windows` (all windows of all
+    /// sessions shuffled together) or `sequences` (as thesis Sec. 2.5.3
+    /// reads: sets of `--batch` sessions, one window position of each per batch).
+    #[arg(long, value_enum, default_value_t = BatchingArg::Windows)]
+    pub batching: BatchingArg,
     /// Adam's learning rate.
     #[arg(long, default_value_t = 1e-3)]
     pub lr: f64,
+    /// Scale a batch's gradient down to this global norm when it is larger
+    /// (the gradient of the mean loss); 0 never clips.
+    #[arg(long, default_value_t = DEFAULT_CLIP_NORM)]
+    pub clip_norm: f64,
     /// Seed of initialisation, shuffling and initial-state draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -100,6 +152,13 @@ pub struct TrainArgs {
     /// The networks' activation (Sec. 6.1.6: relu).
     #[arg(long, value_enum, default_value_t = ActivationArg::Relu)]
     pub activation: ActivationArg,
+    /// A protocol's training settings at once: `thesis` is Sec. 6.2.4 as
+    /// written (no `--position-shift`, the last epoch, no `--outlier-gate`)
+    /// and, unless `--truth` says otherwise, the thesis's ground truth
+    /// (`/ground_truth/thesis/sliding`, from `slidetrack label --thesis
+    /// --slot thesis`); `default` is this project's (the defaults below).
+    #[arg(long, value_enum, conflicts_with_all = ["position_shift", "no_select", "outlier_gate"])]
+    pub protocol: Option<ProtocolArg>,
     /// Shift each training window by a random offset along the sliding axis,
     /// uniform in +-this (cm), so that the networks cannot tie their output to
     /// where the object happens to be (see the README); 0 keeps the recorded
@@ -111,12 +170,18 @@ pub struct TrainArgs {
     /// (checked after each epoch of the second half of the schedule).
     #[arg(long)]
     pub no_select: bool,
+    /// Feed the feature network the measurement as it is, without dividing
+    /// each channel by its standard deviation over the training data (and
+    /// subtracting its mean), as the thesis states no normalisation.
+    #[arg(long)]
+    pub no_normalise: bool,
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Truth to train against: the ArUco ground truth or the simulator's.
-    #[arg(long, value_enum, default_value_t = TruthArg::GroundTruth)]
-    pub truth: TruthArg,
+    /// Truth to train against: the ArUco ground truth (default, or the
+    /// thesis protocol's with `--protocol thesis`) or the simulator's.
+    #[arg(long, value_enum)]
+    pub truth: Option<TruthArg>,
     /// Also plot the training curve (state RMSE per epoch, Fig. 6.6).
     #[arg(long)]
     pub plot: Option<PathBuf>,
@@ -182,9 +247,16 @@ pub struct StudyArgs {
     /// first (see `--collect`), and unlabelled sessions are labelled.
     #[arg(long, default_value = "study/sessions")]
     pub sessions: PathBuf,
-    /// Directory for the models and the tables.
-    #[arg(long, default_value = "study")]
-    pub out: PathBuf,
+    /// Directory for the models and the tables (default `study` for the
+    /// default protocol, `study-thesis` for the thesis's).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// How to label and train: `default` (this project's) or `thesis`
+    /// (Sec. 6.2.3-6.2.4 as written). Both can share `--sessions`: each
+    /// labels into its own ground-truth channels. `docs/dekf-study.md`
+    /// lists the differences and their measured effects.
+    #[arg(long, value_enum, default_value_t = ProtocolArg::Default)]
+    pub protocol: ProtocolArg,
     /// A small, fast version: 3 + 3 sessions of 20 s per object collected
     /// without camera, trained against the simulator's truth with 2 epochs per length.
     #[arg(long)]
@@ -199,8 +271,8 @@ pub struct StudyArgs {
     /// Training schedule (default the thesis's 2:5,4:5,8:5,16:5,32:5).
     #[arg(long)]
     pub schedule: Option<String>,
-    /// Truth to train and score against (default: the ArUco ground truth;
-    /// `--quick`: the simulator's truth, as it collects no camera).
+    /// Truth to train and score against (default: the protocol's ArUco
+    /// ground truth; `--quick`: the simulator's truth, as it collects no camera).
     #[arg(long, value_enum)]
     pub truth: Option<TruthArg>,
     /// Seed of the simulated rig and of the trainings.

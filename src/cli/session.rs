@@ -72,6 +72,15 @@ pub enum AxisArg {
     Estimate,
 }
 
+/// The ground-truth channels `label` writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SlotArg {
+    /// `/ground_truth/sliding` and `/ground_truth/measurements`.
+    Default,
+    /// `/ground_truth/thesis/sliding` and `/ground_truth/thesis/measurements`.
+    Thesis,
+}
+
 /// Arguments of `label`.
 #[derive(Debug, Args)]
 pub struct LabelArgs {
@@ -106,6 +115,13 @@ pub struct LabelArgs {
     /// Tunes with the innovation gate (the default one unless --gate says).
     #[arg(long, conflicts_with = "no_gate")]
     pub tune: bool,
+    /// Where to write the ground truth: `default` on `/ground_truth/sliding`
+    /// and `/ground_truth/measurements` (what `train`, `eval` and the plots
+    /// read), or `thesis` on `/ground_truth/thesis/...` (what `--truth
+    /// thesis-ground-truth` and `study --protocol thesis` read). Labelling
+    /// replaces the channels of its slot only: the other slot's stay.
+    #[arg(long, value_enum, default_value_t = SlotArg::Default)]
+    pub slot: SlotArg,
     /// Compute and report only; leave the files as they are.
     #[arg(long)]
     pub dry_run: bool,

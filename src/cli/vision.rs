@@ -45,6 +45,12 @@ pub enum MeasurementsArg {
     Network,
     /// The input's ground truth, every frame, without delay.
     Truth,
+    /// Poses from an ArUco marker fixed to the object, masks rendered from
+    /// the model at them (--aruco-config).
+    Aruco,
+    /// Masks and poses from another process over a local socket
+    /// (--listen; protocol in docs/protocols.md).
+    External,
 }
 
 /// How a tracker starts.
@@ -77,6 +83,14 @@ pub struct VisionSimulateArgs {
     /// Peak angular speed (deg/s).
     #[arg(long, default_value_t = 270.0)]
     pub max_angular_speed: f64,
+    /// Print an ArUco marker, DICTIONARY:ID (for example DICT_4X4_50:0), on
+    /// the object's face seen most in the first frame, and write the
+    /// matching --aruco-config next to the session (OUT.aruco.toml).
+    #[arg(long)]
+    pub marker: Option<String>,
+    /// Side of the printed marker's black square (m).
+    #[arg(long, default_value_t = 0.05)]
+    pub marker_size: f64,
     /// Session file to write.
     #[arg(long)]
     pub out: PathBuf,
@@ -112,6 +126,13 @@ pub struct VisionTrackArgs {
     /// How the tracker starts.
     #[arg(long, value_enum, default_value_t = InitArg::Measurement)]
     pub init: InitArg,
+    /// The marker on the object, for --measurements aruco: a TOML file
+    /// (dictionary, marker_id, marker_size_m, marker_from_object, ...; see
+    /// the README).
+    #[arg(long, required_if_eq("measurements", "aruco"))]
+    pub aruco_config: Option<PathBuf>,
+    #[command(flatten)]
+    pub external: ExternalArgs,
     /// Session file for the estimates (/estimate/pose|transform|velocity/<tracker>).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -136,6 +157,28 @@ pub struct VisionTrackArgs {
     /// of a recording).
     #[arg(long, requires = "live")]
     pub duration: Option<f64>,
+}
+
+/// The socket of `--measurements external`.
+#[derive(Debug, Args)]
+pub struct ExternalArgs {
+    /// Address the external source listens on (localhost TCP).
+    #[arg(long, default_value = "127.0.0.1:7450")]
+    pub listen: String,
+    /// With a client connected, wait up to this long (ms) at each frame for
+    /// its result (recorded inputs); 0: never wait (live cameras).
+    #[arg(long, default_value_t = 1000)]
+    pub external_wait_ms: u64,
+    /// Before the first frame, wait up to this long (ms) for a client to
+    /// connect; 0: start at once.
+    #[arg(long, default_value_t = 0)]
+    pub external_wait_client_ms: u64,
+    /// Results older than this (ms) when they arrive are dropped.
+    #[arg(long, default_value_t = 1000)]
+    pub external_max_age_ms: u64,
+    /// Send each frame's colour (JPEG) and depth (PNG) to the client.
+    #[arg(long)]
+    pub external_send_images: bool,
 }
 
 /// Arguments of `vision eval`.
@@ -250,5 +293,49 @@ mod tests {
             ])
             .is_err()
         );
+    }
+
+    #[test]
+    fn the_source_options_parse() {
+        let cli = Cli::try_parse_from([
+            "slidetrack",
+            "vision",
+            "track",
+            "--tracker",
+            "roft",
+            "--input",
+            "s.mcap",
+            "--model",
+            "sim",
+            "--measurements",
+            "external",
+            "--listen",
+            "127.0.0.1:9000",
+            "--external-wait-ms",
+            "0",
+        ])
+        .unwrap();
+        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
+        assert_eq!(
+            (t.measurements, t.external.listen.as_str(), t.external.external_wait_ms),
+            (MeasurementsArg::External, "127.0.0.1:9000", 0)
+        );
+        let aruco = [
+            "slidetrack",
+            "vision",
+            "track",
+            "--tracker",
+            "roft",
+            "--input",
+            "s",
+            "--model",
+            "m",
+            "--measurements",
+            "aruco",
+        ];
+        assert!(Cli::try_parse_from(aruco).is_err(), "aruco without --aruco-config");
+        let cli = Cli::try_parse_from(aruco.iter().copied().chain(["--aruco-config", "a.toml"])).unwrap();
+        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
+        assert_eq!(t.aruco_config.as_deref(), Some(std::path::Path::new("a.toml")));
     }
 }

@@ -13,6 +13,7 @@ use slidetrack_experiment::dekf_run::{save_model, write_atomically};
 use slidetrack_experiment::dekf_train::TrainSpec;
 use slidetrack_experiment::pipeline::{DataSpec, collect, label, threads};
 use slidetrack_experiment::plot::dekf::plot_training_curve;
+use slidetrack_experiment::protocol::Protocol;
 
 use super::train::fit_with_progress;
 use crate::cli::{DemoArgs, PlotArgs, PlotKind, ReplayArgs};
@@ -44,7 +45,7 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     let step = |what: &str| println!("\n[{:5.1} s] {what}", started.elapsed().as_secs_f64());
 
     step("labelling: marker positions -> Kalman filter + RTS smoother -> /ground_truth/sliding");
-    label(&files, workers, &stop)?;
+    label(&files, Protocol::Default, workers, &stop)?;
     let (train, test) = files.split_at(args.train as usize);
 
     step(&format!("training the dEKF on {} sessions (xy channels, tactile derivative)", train.len()));

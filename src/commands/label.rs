@@ -6,10 +6,10 @@ use serde_json::json;
 use slidetrack_calibration::ground_truth::{
     AxisSource, DEFAULT_GATE_MAHALANOBIS2, default_params, gate, thesis_params,
 };
-use slidetrack_calibration::label::{LabelOptions, LabelReport, label_session};
+use slidetrack_calibration::label::{GroundTruthSlot, LabelOptions, LabelReport, label_session};
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
 
-use crate::cli::{AxisArg, LabelArgs};
+use crate::cli::{AxisArg, LabelArgs, SlotArg};
 
 pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
     let options = LabelOptions {
@@ -22,6 +22,10 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
         recover: args.recover,
         dry_run: args.dry_run,
         tune: args.tune,
+        slot: match args.slot {
+            SlotArg::Default => GroundTruthSlot::Default,
+            SlotArg::Thesis => GroundTruthSlot::Thesis,
+        },
     };
     let bar = if quiet || args.files.len() < 2 {
         ProgressBar::hidden()

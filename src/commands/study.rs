@@ -9,8 +9,9 @@ use anyhow::{Result, bail};
 use serde_json::{Value, json};
 use slidetrack_experiment::dataset::TruthSource;
 use slidetrack_experiment::dekf_run::write_atomically;
-use slidetrack_experiment::dekf_train::{DEFAULT_POSITION_SHIFT_CM, parse_schedule};
+use slidetrack_experiment::dekf_train::{TrainSpec, parse_schedule};
 use slidetrack_experiment::pipeline::{parallel, threads};
+use slidetrack_experiment::protocol::Protocol;
 use slidetrack_experiment::study::{OBJECTS, StudySpec, Tables, data, models, train_and_score};
 
 use crate::cli::StudyArgs;
@@ -20,15 +21,19 @@ fn spec(args: &StudyArgs) -> Result<(StudySpec, String)> {
     let schedule = args.schedule.clone().unwrap_or_else(|| {
         if args.quick { "2:2,4:2,8:2,16:2,32:2" } else { "2:5,4:5,8:5,16:5,32:5" }.to_string()
     });
+    let protocol: Protocol = args.protocol.into();
+    let out = args.out.clone().unwrap_or_else(|| match protocol {
+        Protocol::Default => "study".into(),
+        Protocol::Thesis => "study-thesis".into(),
+    });
     let spec = StudySpec {
         sessions: args.sessions.clone(),
-        out: args.out.clone(),
+        out,
+        protocol,
         collect: args.collect.unwrap_or(if args.quick { 6 } else { 50 }),
         duration_s: args.duration.unwrap_or(if args.quick { 20.0 } else { 60.0 }),
         schedule: parse_schedule(&schedule)?,
-        truth: args
-            .truth
-            .map_or(if args.quick { TruthSource::Sim } else { TruthSource::GroundTruth }, Into::into),
+        truth: args.truth.map_or(if args.quick { TruthSource::Sim } else { protocol.truth() }, Into::into),
         seed: args.seed,
         threads: threads(args.threads),
     };
@@ -56,17 +61,20 @@ pub fn run(args: &StudyArgs, _quiet: bool) -> Result<()> {
     }
     let per_object: BTreeMap<&str, usize> =
         OBJECTS.iter().map(|o| (*o, sets[&(*o, false)].len() + sets[&(*o, true)].len())).collect();
+    let trained = s.protocol.training(TrainSpec::default());
     let config = json!({
+        "protocol": s.protocol.name(),
         "sessions": args.sessions,
         "sessions_per_object": per_object,
         "split": "first half (by file name) training, second half testing",
         "schedule": schedule,
-        "position_shift_cm": DEFAULT_POSITION_SHIFT_CM,
+        "position_shift_cm": trained.position_shift_cm,
+        "epoch_selection": trained.select_epoch,
         "truth": s.truth.topic(),
         "seed": args.seed,
         "quick": args.quick,
     });
-    write_outputs(&args.out, &tables, config, outcomes.into_iter().map(|o| o.summary).collect())
+    write_outputs(&s.out, &tables, config, outcomes.into_iter().map(|o| o.summary).collect())
 }
 
 fn write_outputs(out: &Path, tables: &Tables, config: Value, models: Vec<Value>) -> Result<()> {

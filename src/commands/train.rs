@@ -4,27 +4,37 @@ use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use slidetrack_estimators::dekf::Architecture;
-use slidetrack_experiment::dataset::{ChannelSet, SessionData, expand, load};
+use slidetrack_experiment::dataset::{ChannelSet, SessionData, TruthSource, expand, load};
 use slidetrack_experiment::dekf_run::save_model;
 use slidetrack_experiment::dekf_train::{TrainSpec, Trained, fit_sessions, parse_schedule};
 use slidetrack_experiment::plot::dekf::plot_training_curve;
+use slidetrack_experiment::protocol::Protocol;
 
 use crate::cli::TrainArgs;
 
 /// The training `args` ask for.
 pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
-    Ok(TrainSpec {
+    let protocol: Option<Protocol> = args.protocol.map(Into::into);
+    let truth = match (args.truth, protocol) {
+        (Some(truth), _) => truth.into(),
+        (None, Some(p)) => p.truth(),
+        (None, None) => TruthSource::GroundTruth,
+    };
+    let spec = TrainSpec {
         channels: ChannelSet::parse_channels(&args.channels),
         measurement: args.measurement.into(),
         rate_hz: args.rate_hz,
         schedule: parse_schedule(&args.schedule)?,
         batch: args.batch,
+        batching: args.batching.into(),
         learning_rate: args.lr,
+        clip_norm: (args.clip_norm > 0.0).then_some(args.clip_norm),
         seed: args.seed,
         position_shift_cm: args.position_shift,
         select_epoch: !args.no_select,
+        normalise_inputs: !args.no_normalise,
         threads: args.threads,
-        truth: args.truth.into(),
+        truth,
         rate_tolerance: args.rate_tolerance,
         outlier_gate_sigma: args.outlier_gate,
         architecture: Architecture {
@@ -32,6 +42,10 @@ pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
             residual_blocks: args.blocks,
             activation: args.activation.into(),
         },
+    };
+    Ok(match protocol {
+        Some(p) => p.training(spec),
+        None => spec,
     })
 }
 

@@ -8,6 +8,10 @@ use slidetrack_estimators::roft::RoftError;
 use slidetrack_session::SessionError;
 use thiserror::Error;
 
+mod external;
+
+pub use external::ExternalError;
+
 /// Errors of the vision crate.
 #[derive(Debug, Error)]
 #[non_exhaustive]
@@ -95,6 +99,12 @@ pub enum VisionError {
     /// A filter refused its inputs.
     #[error("filter: {0}")]
     Estimator(#[from] EstimatorError),
+    /// Marker detection or its pose failed.
+    #[error("ArUco: {0}")]
+    Marker(#[from] slidetrack_calibration::MarkerError),
+    /// The external measurement source refused a message or its socket failed.
+    #[error("external source: {0}")]
+    External(#[from] ExternalError),
     /// A device failed.
     #[error(transparent)]
     Device(#[from] slidetrack_core::DeviceError),

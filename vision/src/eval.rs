@@ -58,7 +58,7 @@ pub fn track(
             (Some(t), Some(m)) => Some(FrameTruth { camera_from_object: &t.camera_from_object, mask: m }),
             _ => None,
         };
-        let arrivals = measurements.on_frame(sample.frame.t, truth)?;
+        let arrivals = measurements.on_rgbd_frame(&sample.frame, truth)?;
         if let Some(p) = arrivals.latest_pose() {
             last_measured_pose = Some(p.value);
         }

@@ -18,7 +18,9 @@ pub use filter::{DekfOutput, DekfTracker, MIN_INNOVATION_VAR};
 pub use input::{DekfInput, InputStep};
 pub use model::{DekfModel, Measurement, ModelMeta};
 pub use params::{Activation, Architecture};
-pub use train::{EpochReport, Progress, Selection, Stage, TrainConfig, train, train_with_selection};
+pub use train::{
+    Batching, EpochReport, Progress, Selection, Stage, TrainConfig, train, train_with_selection,
+};
 
 #[cfg(test)]
 mod tests;

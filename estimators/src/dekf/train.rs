@@ -19,6 +19,22 @@ pub struct Stage {
     pub epochs: usize,
 }
 
+/// How the windows of an epoch are grouped into batches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Batching {
+    /// Every window of every sequence shuffled together, then cut into
+    /// batches of `batch_size` (the last one may be smaller).
+    #[default]
+    Windows,
+    /// As thesis Sec. 2.5.3 reads: the sequences shuffled and cut into sets
+    /// of `batch_size`; a batch is one window position of every sequence of
+    /// a set, and each set steps through all its window positions
+    /// (shuffled). The windows are the same as with [`Batching::Windows`];
+    /// a batch holds windows of different sequences at the same time.
+    Sequences,
+}
+
 /// Training settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -27,12 +43,16 @@ pub struct TrainConfig {
     pub schedule: Vec<Stage>,
     /// Subsequences per batch `B`.
     pub batch_size: usize,
+    /// How windows are grouped into batches.
+    #[serde(default)]
+    pub batching: Batching,
     /// Adam's step size.
     pub learning_rate: f64,
     /// Adam's `beta1`, `beta2`, `epsilon`.
     pub adam: [f64; 3],
-    /// Largest global gradient norm; larger gradients are scaled down.
-    pub clip_norm: f64,
+    /// Largest global norm of a batch's (mean-loss) gradient; larger
+    /// gradients are scaled down. `None`: no clipping.
+    pub clip_norm: Option<f64>,
     /// Seed of the shuffling and of the initial-state draws.
     pub seed: u64,
     /// Worker threads (0: as many as the machine has). Not written to model
@@ -49,9 +69,10 @@ impl Default for TrainConfig {
         TrainConfig {
             schedule: [2, 4, 8, 16, 32].into_iter().map(|length| Stage { length, epochs: 5 }).collect(),
             batch_size: 32,
+            batching: Batching::Windows,
             learning_rate: 1e-3,
             adam: [0.9, 0.999, 1e-8],
-            clip_norm: 10.0,
+            clip_norm: Some(10.0),
             seed: 1,
             threads: 0,
             position_shift_cm: 0.0,
@@ -121,16 +142,54 @@ impl Adam {
     }
 }
 
-/// The windows of one epoch: every sequence cut into consecutive
-/// subsequences of `length` steps, shuffled.
-fn epoch_windows(data: &[Sequence], length: usize, rng: &mut ChaCha8Rng) -> Vec<(usize, usize)> {
-    let mut w: Vec<(usize, usize)> = data
-        .iter()
-        .enumerate()
-        .flat_map(|(i, s)| (0..s.len().saturating_sub(length)).step_by(length).map(move |t0| (i, t0)))
-        .collect();
-    w.shuffle(rng);
-    w
+/// The window starts of a sequence of `len` steps: consecutive
+/// subsequences of `length` steps.
+fn starts(len: usize, length: usize) -> impl Iterator<Item = usize> {
+    (0..len.saturating_sub(length)).step_by(length)
+}
+
+/// The batches of one epoch, `(sequence, start)` each: every sequence cut
+/// into consecutive subsequences of `length` steps, grouped as `batching` says.
+fn epoch_batches(
+    data: &[Sequence],
+    length: usize,
+    batch_size: usize,
+    batching: Batching,
+    rng: &mut ChaCha8Rng,
+) -> Vec<Vec<(usize, usize)>> {
+    let batch_size = batch_size.max(1);
+    match batching {
+        Batching::Windows => {
+            let mut w: Vec<(usize, usize)> = data
+                .iter()
+                .enumerate()
+                .flat_map(|(i, s)| starts(s.len(), length).map(move |t0| (i, t0)))
+                .collect();
+            w.shuffle(rng);
+            w.chunks(batch_size).map(<[(usize, usize)]>::to_vec).collect()
+        }
+        Batching::Sequences => {
+            let mut order: Vec<usize> = (0..data.len()).collect();
+            order.shuffle(rng);
+            let mut batches = Vec::new();
+            for set in order.chunks(batch_size) {
+                let longest = set.iter().map(|&i| data[i].len()).max().unwrap_or(0);
+                let mut positions: Vec<usize> = starts(longest, length).collect();
+                positions.shuffle(rng);
+                for t0 in positions {
+                    let batch: Vec<(usize, usize)> = set
+                        .iter()
+                        .filter(|&&i| t0 < data[i].len().saturating_sub(length))
+                        .map(|&i| (i, t0))
+                        .collect();
+                    if !batch.is_empty() {
+                        batches.push(batch);
+                    }
+                }
+            }
+            batches
+        }
+    }
 }
 
 /// Windows per shard of a batch's gradient. Fixed, so that the shards, and
@@ -250,17 +309,17 @@ pub fn train_with_selection(
         .schedule
         .iter()
         .map(|s| {
-            s.epochs * epoch_windows(data, s.length, &mut rng.clone()).len().div_ceil(cfg.batch_size.max(1))
+            s.epochs * epoch_batches(data, s.length, cfg.batch_size, cfg.batching, &mut rng.clone()).len()
         })
         .sum();
     let mut done = 0;
     let mut reports = Vec::new();
     for (stage, st) in cfg.schedule.iter().enumerate() {
         for epoch in 0..st.epochs {
-            let windows = epoch_windows(data, st.length, &mut rng);
-            let batches = windows.len().div_ceil(cfg.batch_size.max(1));
+            let grouped = epoch_batches(data, st.length, cfg.batch_size, cfg.batching, &mut rng);
+            let batches = grouped.len();
             let (mut sq, mut states, mut skipped) = ([0.0f64; 2], 0usize, 0usize);
-            for (b, chunk) in windows.chunks(cfg.batch_size.max(1)).enumerate() {
+            for (b, chunk) in grouped.iter().enumerate() {
                 let batch = batch_windows(chunk, data, cfg, p0, &mut rng);
                 let mut g = parallel_grad(model, data, &batch, st.length, pool.as_ref());
                 // Loss (2.149): mean over steps, batch and state components.
@@ -270,7 +329,10 @@ pub fn train_with_selection(
                 if !(g.squared_error.is_finite() && norm.is_finite()) {
                     skipped += 1;
                 } else {
-                    let clip = if norm > cfg.clip_norm { cfg.clip_norm / norm } else { 1.0 };
+                    let clip = match cfg.clip_norm {
+                        Some(max) if norm > max => max / norm,
+                        _ => 1.0,
+                    };
                     g.grad.iter_mut().for_each(|x| *x = (f64::from(*x) * scale * clip) as f32);
                     adam.step(&mut model.params, &g.grad, &mask, cfg.learning_rate, cfg.adam);
                     sq[0] += g.squared_error_pv[0];

@@ -17,11 +17,12 @@ use slidetrack_session::{ReadOptions, SESSION_METADATA, SessionInfo};
 
 pub use tables::{OBJECTS, Tables};
 
-use crate::dataset::{ChannelSet, GROUND_TRUTH_TOPIC, SessionData, TruthSource, expand, load};
+use crate::dataset::{ChannelSet, SessionData, TruthSource, expand, load};
 use crate::dekf_eval::score_session;
 use crate::dekf_run::{Scores, mean_scores, save_model};
 use crate::dekf_train::{TrainSpec, fit_sessions};
 use crate::pipeline::{DataSpec, collect, label};
+use crate::protocol::Protocol;
 
 /// The training (`false`) and testing (`true`) sessions of each object.
 pub type Sets = BTreeMap<(&'static str, bool), Vec<SessionData>>;
@@ -78,7 +79,9 @@ pub struct StudySpec {
     pub duration_s: f64,
     /// The training schedule.
     pub schedule: Vec<Stage>,
-    /// Truth to train and score against.
+    /// How to train (and, unless `truth` says otherwise, label).
+    pub protocol: Protocol,
+    /// Truth to train and score against (the protocol's, or the simulator's).
     pub truth: TruthSource,
     /// Seed of the simulated rig and of the trainings.
     pub seed: u64,
@@ -121,7 +124,7 @@ pub fn data(s: &StudySpec, stop: &AtomicBool) -> Result<Sets> {
                 seed: s.seed,
                 trials: 0..s.collect,
                 duration_s: s.duration_s,
-                camera: s.truth == TruthSource::GroundTruth,
+                camera: s.truth.is_labelled(),
             };
             eprintln!("{object}: collecting {} sessions into {}", s.collect, s.sessions.display());
             files = collect(&spec, &s.sessions, s.threads, stop, &|_, report| {
@@ -137,15 +140,17 @@ pub fn data(s: &StudySpec, stop: &AtomicBool) -> Result<Sets> {
                 s.sessions.display()
             );
         }
-        if s.truth == TruthSource::GroundTruth {
-            let unlabelled: Vec<PathBuf> = files
-                .iter()
-                .filter(|f| !has_topic(f, GROUND_TRUTH_TOPIC).unwrap_or(false))
-                .cloned()
-                .collect();
+        if let Some(labelling) = Protocol::labelling(s.truth) {
+            let unlabelled: Vec<PathBuf> =
+                files.iter().filter(|f| !has_topic(f, s.truth.topic()).unwrap_or(false)).cloned().collect();
             if !unlabelled.is_empty() {
-                eprintln!("{object}: labelling {} sessions", unlabelled.len());
-                label(&unlabelled, s.threads, stop)?;
+                eprintln!(
+                    "{object}: labelling {} sessions ({} protocol, {})",
+                    unlabelled.len(),
+                    labelling.name(),
+                    s.truth.topic()
+                );
+                label(&unlabelled, labelling, s.threads, stop)?;
             }
         }
         files.sort();
@@ -181,7 +186,7 @@ pub fn train_and_score(spec: &ModelSpec, sets: &Sets, s: &StudySpec) -> Result<O
     let train: Vec<SessionData> =
         spec.trained_on.iter().flat_map(|o| sets[&(*o, false)].iter().cloned()).collect();
     let path = s.out.join("models").join(format!("{}.safetensors", spec.name));
-    let train_spec = TrainSpec {
+    let train_spec = s.protocol.training(TrainSpec {
         channels: spec.channels.names(),
         measurement: spec.measurement,
         schedule: s.schedule.clone(),
@@ -189,7 +194,7 @@ pub fn train_and_score(spec: &ModelSpec, sets: &Sets, s: &StudySpec) -> Result<O
         threads: 1,
         truth: s.truth,
         ..TrainSpec::default()
-    };
+    });
     let trained = fit_sessions(&train_spec, &train, &mut |_| {})?;
     save_model(&trained.model, &path)?;
     let last = trained.epochs.last().map_or([f64::NAN; 2], |e| e.rmse);

@@ -17,6 +17,7 @@
 //! down, z forward); `object` is the object's own frame, centred in its
 //! bounding box. Deterministic: the same seed gives the same frames.
 
+mod decal;
 mod inhand;
 mod motion;
 mod scene;
@@ -25,6 +26,7 @@ mod texture;
 #[cfg(test)]
 mod tests;
 
+pub use decal::MarkerDecal;
 pub use inhand::InHandRgbd;
 pub use motion::{FastMotion, FastMotionConfig, FastSequence, FastSequenceConfig, SimObjectKind};
 pub use scene::{DepthNoise, RenderedRgbd, RgbdScene, RgbdSceneConfig};

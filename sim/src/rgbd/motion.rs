@@ -4,10 +4,11 @@
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
-use slidetrack_core::{CameraIntrinsics, ObjectTruth, RgbdFrame, TimeNs};
+use slidetrack_core::{CameraIntrinsics, MarkerPattern, ObjectTruth, RgbdFrame, TimeNs};
 use slidetrack_render::{TriangleMesh, splitmix64};
 
 use super::RgbdSimError;
+use super::decal::MarkerDecal;
 use super::scene::{RgbdScene, RgbdSceneConfig};
 use super::texture::Texture;
 
@@ -320,6 +321,16 @@ impl FastSequence {
     /// The object's mesh.
     pub fn mesh(&self) -> &TriangleMesh {
         self.scene.mesh()
+    }
+
+    /// Prints the marker `pattern` (black square `size_m` per side) on the
+    /// face that faces the camera most in the first frame; returns the
+    /// decal, with its `object_from_marker`, or `None` when no face fits.
+    pub fn print_marker(&mut self, pattern: MarkerPattern, size_m: f64) -> Option<&MarkerDecal> {
+        let first = self.truth(0).camera_from_object;
+        let decal = MarkerDecal::on_face_seen_at(pattern, size_m, self.scene.mesh(), &first)?;
+        self.scene.set_marker(Some(decal));
+        self.scene.marker()
     }
 
     /// The configuration.

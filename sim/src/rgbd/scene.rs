@@ -8,6 +8,7 @@ use slidetrack_core::{CameraIntrinsics, DepthImage, Image, PixelFormat};
 use slidetrack_render::{PixelRegion, Rasterizer, TriangleMesh, splitmix64};
 
 use super::RgbdSimError;
+use super::decal::MarkerDecal;
 use super::texture::Texture;
 
 /// The depth sensor's imperfections.
@@ -109,6 +110,7 @@ pub struct RgbdScene {
     wall_rgb: Vec<u8>,
     noise: Vec<f32>,
     uniform: Vec<f32>,
+    marker: Option<MarkerDecal>,
 }
 
 impl RgbdScene {
@@ -165,6 +167,7 @@ impl RgbdScene {
             wall_rgb,
             noise,
             uniform,
+            marker: None,
         })
     }
 
@@ -176,6 +179,16 @@ impl RgbdScene {
     /// The object's mesh (object frame).
     pub fn mesh(&self) -> &TriangleMesh {
         &self.mesh
+    }
+
+    /// Prints `marker` on the object from now on (`None` removes it).
+    pub fn set_marker(&mut self, marker: Option<MarkerDecal>) {
+        self.marker = marker;
+    }
+
+    /// The marker printed on the object.
+    pub fn marker(&self) -> Option<&MarkerDecal> {
+        self.marker.as_ref()
     }
 
     /// Renders frame `sequence` with the object at `camera_from_object`. The
@@ -267,9 +280,14 @@ impl RgbdScene {
                     0.0
                 };
                 let x = origin + ray * s;
-                let albedo = self
-                    .texture
-                    .sample(x.coords.dot(&face.e_s) + face.offset.0, x.coords.dot(&face.e_t) + face.offset.1);
+                let printed = self.marker.as_ref().and_then(|m| m.shade_at(&x, &face.normal));
+                let albedo = match printed {
+                    Some(white) => [if white { 0.95 } else { 0.05 }; 3],
+                    None => self.texture.sample(
+                        x.coords.dot(&face.e_s) + face.offset.0,
+                        x.coords.dot(&face.e_t) + face.offset.1,
+                    ),
+                };
                 let n_c = camera_from_object.rotation * face.normal;
                 let shade = (0.35 + 0.65 * n_c.dot(&light).max(0.0)) as f32;
                 let i = v as usize * c.width as usize + u as usize;

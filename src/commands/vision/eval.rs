@@ -104,6 +104,8 @@ fn inputs(args: &EvalArgs) -> Result<Vec<Row>> {
             measurements: args.measurements,
             init: args.init,
             recover: false,
+            aruco_config: None,
+            external: None,
         };
         let Prepared { mut source, mut measurements, model, intrinsics, initial_pose } =
             prepare(input, &options)?;

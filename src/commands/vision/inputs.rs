@@ -11,7 +11,8 @@ use slidetrack_sim::rgbd::SimObjectKind;
 use slidetrack_vision::ObjectModel;
 use slidetrack_vision::input::{RgbdSample, RgbdSource, SessionRgbd, YCB_CLASSES, YcbDirectory};
 use slidetrack_vision::sources::{
-    FileSequence, MeasurementSource, SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
+    ArucoConfig, ArucoSource, ExternalConfig, ExternalSource, FileSequence, MeasurementSource,
+    SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
 };
 
 use crate::cli::{InitArg, MeasurementsArg};
@@ -38,6 +39,10 @@ pub struct InputOptions<'a> {
     pub measurements: MeasurementsArg,
     pub init: InitArg,
     pub recover: bool,
+    /// The marker configuration of `--measurements aruco`.
+    pub aruco_config: Option<&'a Path>,
+    /// The socket of `--measurements external`.
+    pub external: Option<ExternalConfig>,
 }
 
 /// Opens `input` (a session or a YCB-Video-style directory).
@@ -63,12 +68,13 @@ pub fn prepare(input: &Path, o: &InputOptions<'_>) -> Result<Prepared> {
         } else {
             bail!("{}: no such session file or directory", input.display());
         };
+    let intrinsics = source.intrinsics().clone();
     let measurements: Box<dyn MeasurementSource> = match o.measurements {
         MeasurementsArg::Input => input_measurements,
         MeasurementsArg::Network => Box::new(SlowNetwork::new(SlowNetworkConfig::default())),
         MeasurementsArg::Truth => Box::new(TruthSource { masks: true, poses: true }),
+        MeasurementsArg::Aruco | MeasurementsArg::External => own_measurements(o, &model, &intrinsics)?,
     };
-    let intrinsics = source.intrinsics().clone();
     let mut source = Peeked::new(source);
     let initial_pose = match o.init {
         InitArg::Measurement => None,
@@ -81,6 +87,32 @@ pub fn prepare(input: &Path, o: &InputOptions<'_>) -> Result<Prepared> {
         }
     };
     Ok(Prepared { source: Box::new(source), measurements, model, intrinsics, initial_pose })
+}
+
+/// The sources that see the frames themselves: `--measurements aruco`
+/// (a marker on the object) and `external` (another process); an error for
+/// the others, which come with an input.
+pub fn own_measurements(
+    o: &InputOptions<'_>,
+    model: &ObjectModel,
+    intrinsics: &CameraIntrinsics,
+) -> Result<Box<dyn MeasurementSource>> {
+    Ok(match o.measurements {
+        MeasurementsArg::Aruco => {
+            let path = o.aruco_config.context("--measurements aruco needs --aruco-config FILE")?;
+            let config = ArucoConfig::load(path)?;
+            let source = ArucoSource::new(config, model, intrinsics)
+                .with_context(|| format!("{}: unusable ArUco configuration", path.display()))?;
+            Box::new(source)
+        }
+        MeasurementsArg::External => {
+            let config = o.external.clone().context("--measurements external needs --listen ADDR")?;
+            let source = ExternalSource::listen(config, intrinsics)?;
+            eprintln!("external source: listening on {}", source.local_addr());
+            Box::new(source)
+        }
+        other => bail!("--measurements {other:?} comes with an input, not from the frames"),
+    })
 }
 
 /// 5 cm along each axis and 10 degrees on each Euler angle away (Sec. 4.2.3).

@@ -26,8 +26,9 @@ use slidetrack_vision::{
     ObjectModel, OnlineTracker, TrackedState, TrackerSettings, VisionError, build_tracker,
 };
 
-use super::inputs::{load_model, perturbed};
+use super::inputs::{InputOptions, load_model, own_measurements, perturbed};
 use super::live_camera::{self, LiveCamera};
+use super::track::external_config;
 use crate::cli::{InitArg, MeasurementsArg, VisionTrackArgs as TrackArgs};
 
 /// JPEG quality of the recorded colour frames.
@@ -50,8 +51,8 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let model = load_model(&args.model, args.model_scale, session.map(|p| (p, ReadOptions::default())))?;
     let mut truth = session.map(RecordedTruth::open).transpose()?;
     let offset_ns = replayed.as_ref().map_or(0, |(_, o)| *o);
-    let mut measurements = measurements(args.measurements, session, offset_ns)?;
     let intrinsics = camera.pair.intrinsics().clone();
+    let mut measurements = measurements(args, session, offset_ns, &model, &intrinsics)?;
     let output = Output::open(args, rig_path, offset_ns, &model, &intrinsics)?;
     if !quiet {
         eprintln!("tracking live on the [rgbd] camera of {} (Ctrl-C stops)", rig_path.display());
@@ -71,8 +72,8 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
             None => tracker.insert(start_tracker(args, &model, &intrinsics, &sample)?),
         };
         let frame_truth = sample.truth.as_ref().zip(sample.truth_mask.as_ref());
-        let arrivals = measurements.on_frame(
-            sample.frame.t,
+        let arrivals = measurements.on_rgbd_frame(
+            &sample.frame,
             frame_truth.map(|(t, m)| FrameTruth { camera_from_object: &t.camera_from_object, mask: m }),
         )?;
         let step = Instant::now();
@@ -203,28 +204,43 @@ fn start_tracker(
     Ok(build_tracker(args.tracker.kind(), model, intrinsics, &settings)?)
 }
 
-/// Masks and poses for a live run. A replayed session brings its own
-/// (`/vision/mask`, `/vision/pose`, moved onto the run's clock) and its
-/// truth; a real camera needs a measurement source of its own.
+/// Masks and poses for a live run: the sources that see the frames
+/// (`aruco`, `external`) on any camera; a replayed session also brings its
+/// own (`/vision/mask`, `/vision/pose`, moved onto the run's clock) and its
+/// truth (`network`, `truth`).
 fn measurements(
-    which: MeasurementsArg,
+    args: &TrackArgs,
     session: Option<&Path>,
     offset_ns: i128,
+    model: &ObjectModel,
+    intrinsics: &slidetrack_core::CameraIntrinsics,
 ) -> Result<Box<dyn MeasurementSource>> {
-    let Some(session) = session else {
-        bail!(
-            "--measurements {} needs a replayed session's masks, poses or truth; a live camera has none \
-             (use a recording as the [rgbd] camera, or a measurement source of its own)",
-            format!("{which:?}").to_lowercase()
-        );
+    let which = args.measurements;
+    let options = InputOptions {
+        model: &args.model,
+        model_scale: args.model_scale,
+        object: args.object.as_deref(),
+        measurements: which,
+        init: args.init,
+        recover: args.recover,
+        aruco_config: args.aruco_config.as_deref(),
+        external: Some(external_config(&args.external)),
     };
-    Ok(match which {
-        MeasurementsArg::Input => Box::new(Shifted {
+    Ok(match (which, session) {
+        (MeasurementsArg::Aruco | MeasurementsArg::External, _) => {
+            own_measurements(&options, model, intrinsics)?
+        }
+        (_, None) => bail!(
+            "--measurements {} needs a replayed session's masks, poses or truth; a live camera has none \
+             (use --measurements aruco or external, or a recording as the [rgbd] camera)",
+            format!("{which:?}").to_lowercase()
+        ),
+        (MeasurementsArg::Input, Some(session)) => Box::new(Shifted {
             inner: SessionMeasurements::open(session, ReadOptions::default())?,
             offset_ns,
         }),
-        MeasurementsArg::Network => Box::new(SlowNetwork::new(SlowNetworkConfig::default())),
-        MeasurementsArg::Truth => Box::new(TruthSource { masks: true, poses: true }),
+        (MeasurementsArg::Network, Some(_)) => Box::new(SlowNetwork::new(SlowNetworkConfig::default())),
+        (MeasurementsArg::Truth, Some(_)) => Box::new(TruthSource { masks: true, poses: true }),
     })
 }
 

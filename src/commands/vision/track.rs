@@ -10,6 +10,7 @@ use slidetrack_estimators::metrics::SequenceMetrics;
 use slidetrack_session::{Recorder, RecorderOptions};
 use slidetrack_vision::eval::{Scored, TrackedFrame, score};
 use slidetrack_vision::record::EstimateChannels;
+use slidetrack_vision::sources::ExternalConfig;
 use slidetrack_vision::{TrackerKind, TrackerSettings, build_tracker};
 
 use super::inputs::{InputOptions, Prepared, prepare};
@@ -26,6 +27,8 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         measurements: args.measurements,
         init: args.init,
         recover: args.recover,
+        aruco_config: args.aruco_config.as_deref(),
+        external: Some(external_config(&args.external)),
     };
     let Prepared { mut source, mut measurements, model, intrinsics, initial_pose } =
         prepare(input, &options)?;
@@ -48,8 +51,8 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let mut last_pose = None;
     while let Some(sample) = source.next_frame()? {
         let truth = sample.truth.as_ref().zip(sample.truth_mask.as_ref());
-        let arrivals = measurements.on_frame(
-            sample.frame.t,
+        let arrivals = measurements.on_rgbd_frame(
+            &sample.frame,
             truth.map(|(t, m)| slidetrack_vision::sources::FrameTruth {
                 camera_from_object: &t.camera_from_object,
                 mask: m,
@@ -88,7 +91,22 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         .then(|| model.object_points().map(|points| score(&results, first, Scored::Tracker, &points)))
         .transpose()?;
     report(args, frames, tracked, fps, metrics.as_ref());
+    if let Some(summary) = measurements.summary() {
+        eprintln!("{summary}");
+    }
     Ok(())
+}
+
+/// The external source's settings from the command line.
+pub(super) fn external_config(args: &crate::cli::ExternalArgs) -> ExternalConfig {
+    ExternalConfig {
+        listen: args.listen.clone(),
+        wait_for_result: (args.external_wait_ms > 0).then(|| Duration::from_millis(args.external_wait_ms)),
+        wait_for_client: (args.external_wait_client_ms > 0)
+            .then(|| Duration::from_millis(args.external_wait_client_ms)),
+        max_age_ns: args.external_max_age_ms.saturating_mul(1_000_000),
+        send_images: args.external_send_images,
+    }
 }
 
 /// The session for the estimates of `args`, with what produced them in its metadata.

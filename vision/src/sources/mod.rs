@@ -11,16 +11,26 @@
 //!   label masks of YCB-Video, `vision track --measurements truth`);
 //! - [`FileSequence`]: masks and poses listed in CSV files of a directory;
 //! - [`SessionMeasurements`]: the `/vision/mask` and `/vision/pose` channels
-//!   of a session.
+//!   of a session;
+//! - [`ArucoSource`]: poses from an ArUco marker fixed to the object, and
+//!   masks rendered from the object's mesh at those poses;
+//! - [`ExternalSource`]: masks and poses from a lab's own network, over a
+//!   local socket (protocol in `docs/protocols.md`).
 
+mod aruco;
+pub mod external;
 mod files;
 mod network;
+mod rendered_mask;
 
+pub use aruco::{ArrivalDelay, ArucoConfig, ArucoSource, ArucoStats, PoseConfig};
+pub use external::{ExternalConfig, ExternalSource};
 pub use files::{FileSequence, SessionMeasurements};
 pub use network::{SlowNetwork, SlowNetworkConfig};
+pub use rendered_mask::MaskRenderer;
 
 use nalgebra::Isometry3;
-use slidetrack_core::TimeNs;
+use slidetrack_core::{RgbdFrame, TimeNs};
 use slidetrack_estimators::roft::Mask;
 
 use crate::VisionError;
@@ -69,12 +79,30 @@ pub struct FrameTruth<'a> {
 /// A source of masks and poses.
 ///
 /// # Contract
-/// `on_frame` is called once per RGB-D frame, with increasing `t`, and the
+/// `on_frame` (or `on_rgbd_frame`, which sources that look at the images
+/// implement) is called once per RGB-D frame, with increasing `t`, and the
 /// frame's ground truth when the input has one. It returns what became
-/// available at or before `t` and was not returned yet. It does not block.
+/// available at or before `t` and was not returned yet. It does not block
+/// on I/O (the ArUco source computes in the caller's thread; the external
+/// source waits only as long as it is told to).
 pub trait MeasurementSource: Send {
     /// The measurements available at frame `t`.
     fn on_frame(&mut self, t: TimeNs, truth: Option<FrameTruth<'_>>) -> Result<Arrivals, VisionError>;
+
+    /// The measurements available at `frame`, for sources that need its
+    /// images; the others answer as [`MeasurementSource::on_frame`] at its time.
+    fn on_rgbd_frame(
+        &mut self,
+        frame: &RgbdFrame,
+        truth: Option<FrameTruth<'_>>,
+    ) -> Result<Arrivals, VisionError> {
+        self.on_frame(frame.t, truth)
+    }
+
+    /// A one-line account of what the source did (counts), for reports.
+    fn summary(&self) -> Option<String> {
+        None
+    }
 }
 
 /// The ground truth of every frame, immediately: masks, poses, or both.
@@ -113,6 +141,16 @@ impl MeasurementSource for Combined {
     fn on_frame(&mut self, t: TimeNs, truth: Option<FrameTruth<'_>>) -> Result<Arrivals, VisionError> {
         let masks = self.masks.on_frame(t, truth)?.masks;
         let poses = self.poses.on_frame(t, truth)?.poses;
+        Ok(Arrivals { masks, poses })
+    }
+
+    fn on_rgbd_frame(
+        &mut self,
+        frame: &RgbdFrame,
+        truth: Option<FrameTruth<'_>>,
+    ) -> Result<Arrivals, VisionError> {
+        let masks = self.masks.on_rgbd_frame(frame, truth)?.masks;
+        let poses = self.poses.on_rgbd_frame(frame, truth)?.poses;
         Ok(Arrivals { masks, poses })
     }
 }
