@@ -192,6 +192,35 @@ fn fake_network(addr: &str, truth: &FastSequence) -> usize {
     answered
 }
 
+/// Starts `vision track --tracker TRACKER --input SESSION --model sim
+/// --measurements external` listening on a free local port, with `extra`
+/// arguments: the process, its stderr after the first line, and the address
+/// that line names.
+fn track_with_external_source(
+    tracker: &str,
+    session: &str,
+    extra: &[&str],
+) -> (std::process::Child, BufReader<std::process::ChildStderr>, String) {
+    let mut args = vec!["-q", "vision", "track", "--tracker", tracker, "--input", session, "--model", "sim"];
+    args.extend_from_slice(extra);
+    args.extend([
+        "--measurements",
+        "external",
+        "--listen",
+        "127.0.0.1:0",
+        "--external-wait-client-ms",
+        "20000",
+    ]);
+    args.push("--json");
+    let mut child =
+        slidetrack().args(&args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("fixture step");
+    let mut stderr = BufReader::new(child.stderr.take().expect("fixture step"));
+    let mut first = String::new();
+    stderr.read_line(&mut first).expect("fixture step");
+    let addr = first.trim().strip_prefix("external source: listening on ").expect(&first).to_string();
+    (child, stderr, addr)
+}
+
 #[test]
 fn roft_follows_the_poses_of_an_external_client() {
     let dir = tempdir();
@@ -199,35 +228,7 @@ fn roft_follows_the_poses_of_an_external_client() {
     let s = session.to_str().unwrap();
     ok(&["-q", "vision", "simulate", "--duration", "2", "--seed", "5", "--out", s]);
     let truth = FastSequence::new(FastSequenceConfig::new(SimObjectKind::CrackerBox, 2.0, 5)).unwrap();
-    let mut child = slidetrack()
-        .args([
-            "-q",
-            "vision",
-            "track",
-            "--tracker",
-            "roft",
-            "--input",
-            s,
-            "--model",
-            "sim",
-            "--init",
-            "perturbed",
-            "--measurements",
-            "external",
-            "--listen",
-            "127.0.0.1:0",
-            "--external-wait-client-ms",
-            "20000",
-            "--json",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = BufReader::new(child.stderr.take().unwrap());
-    let mut first = String::new();
-    stderr.read_line(&mut first).unwrap();
-    let addr = first.trim().strip_prefix("external source: listening on ").expect(&first).to_string();
+    let (child, mut stderr, addr) = track_with_external_source("roft", s, &["--init", "perturbed"]);
     let answered = std::thread::scope(|scope| scope.spawn(|| fake_network(&addr, &truth)).join().unwrap());
     let out = child.wait_with_output().unwrap();
     let mut rest = String::new();
@@ -253,33 +254,7 @@ fn the_reference_python_client_feeds_poses_and_masks() {
     let session = dir.path().join("plain.mcap");
     let s = session.to_str().unwrap();
     ok(&["-q", "vision", "simulate", "--duration", "1", "--seed", "3", "--out", s]);
-    let mut child = slidetrack()
-        .args([
-            "-q",
-            "vision",
-            "track",
-            "--tracker",
-            "maskukf",
-            "--input",
-            s,
-            "--model",
-            "sim",
-            "--measurements",
-            "external",
-            "--listen",
-            "127.0.0.1:0",
-            "--external-wait-client-ms",
-            "20000",
-            "--json",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = BufReader::new(child.stderr.take().unwrap());
-    let mut first = String::new();
-    stderr.read_line(&mut first).unwrap();
-    let addr = first.trim().strip_prefix("external source: listening on ").expect(&first).to_string();
+    let (child, mut stderr, addr) = track_with_external_source("maskukf", s, &[]);
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/vision-source-example.py");
     let client = std::process::Command::new(common::python())
         .arg(&script)

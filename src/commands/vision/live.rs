@@ -103,6 +103,9 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         "metrics": metrics,
     });
     report(args, &summary, &camera);
+    if let Some(summary) = measurements.summary() {
+        eprintln!("{summary}");
+    }
     Ok(())
 }
 
