@@ -30,8 +30,8 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     if args.vision.is_some() && (args.run.rig == RigArg::Hw || args.run.no_camera) {
         bail!(
             "--vision runs on the simulated rig's rendered RGB-D scene: it needs --rig sim (or a replay of a \
-             simulated session) and the camera (live RGB-D from a real rig needs a segmentation and pose \
-             network; see `slidetrack vision track`)"
+             simulated session) and the camera; on a real RGB-D camera run `slidetrack vision track --live \
+             --rig RIG.toml` (with --measurements aruco or external) beside the tactile tracking"
         );
     }
     let model = load_model(&args.model)?;
