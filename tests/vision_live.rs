@@ -11,9 +11,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use common::{fails, ok, tempdir};
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde_json::Value;
-use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
+use slidetrack_estimators::metrics::{perturbed_start, position_error_m, rotation_error_deg};
 use slidetrack_session::{ObjectTruth, PoseInFrame, ReadOptions, SessionInfo, read_json};
 
 /// A rig whose `[rgbd]` camera replays `session`: colour 5 ms after depth,
@@ -65,7 +64,7 @@ fn second_half_errors(out: &Path, tracker: &str) -> ((f64, f64), (f64, f64)) {
     let (tracked_cm, tracked_deg) = mean_errors(second_half.iter().map(|(t, p)| (*t, p)), &truth);
     // A frozen tracker stays where it started: the perturbed first true pose.
     let first_truth = truth.values().next().unwrap();
-    let frozen = perturbed(first_truth);
+    let frozen = perturbed_start(first_truth);
     let (frozen_cm, frozen_deg) = mean_errors(second_half.iter().map(|(t, _)| (*t, &frozen)), &truth);
     ((tracked_cm, tracked_deg), (frozen_cm, frozen_deg))
 }
@@ -204,16 +203,6 @@ fn the_live_path_tracks_with_the_marker_derived_poses_and_masks() {
             "{tracker}: {tracked_deg:.1} deg vs frozen {frozen_deg:.1} deg"
         );
     }
-}
-
-/// `--init perturbed`: 5 cm along each axis, 10 degrees on each Euler angle.
-fn perturbed(pose: &Isometry3<f64>) -> Isometry3<f64> {
-    let (r, p, y) = pose.rotation.euler_angles();
-    let d = 10f64.to_radians();
-    Isometry3::from_parts(
-        Translation3::from(pose.translation.vector + Vector3::new(0.05, 0.05, 0.05)),
-        UnitQuaternion::from_euler_angles(r + d, p + d, y + d),
-    )
 }
 
 #[test]

@@ -9,7 +9,7 @@
 //! The rotation error is also given with the rotation about an object's
 //! symmetry axis discounted (Sec. 4.2.4, [`rotation_error_modulo_symmetry_deg`]).
 
-use nalgebra::{Isometry3, Point3, Vector3, Vector6};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3, Vector6};
 use serde::Serialize;
 
 use crate::maskukf::ObjectPoints;
@@ -42,6 +42,17 @@ impl RunningRms {
     pub fn rms(&self) -> Option<f64> {
         (self.n > 0).then(|| (self.sum_sq / self.n as f64).sqrt())
     }
+}
+
+/// The start of the perturbed-initialisation experiments (Sec. 4.2.3):
+/// `pose` moved 5 cm along each axis and turned 10 degrees on each Euler angle.
+pub fn perturbed_start(pose: &Isometry3<f64>) -> Isometry3<f64> {
+    let (r, p, y) = pose.rotation.euler_angles();
+    let d = 10f64.to_radians();
+    Isometry3::from_parts(
+        Translation3::from(pose.translation.vector + Vector3::new(0.05, 0.05, 0.05)),
+        UnitQuaternion::from_euler_angles(r + d, p + d, y + d),
+    )
 }
 
 /// `RMSE = sqrt(Σ e_t² / N)` (3.44); `None` for no errors or a non-finite one.

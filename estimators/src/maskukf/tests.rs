@@ -5,7 +5,7 @@ use std::sync::Arc;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
 use super::*;
-use crate::metrics::{position_error_m, rotation_error_deg};
+use crate::metrics::{perturbed_start, position_error_m, rotation_error_deg};
 
 const HALF: [f64; 3] = [0.05, 0.03, 0.08];
 
@@ -64,20 +64,10 @@ fn true_pose(t: f64) -> Isometry3<f64> {
     )
 }
 
-fn offset(pose: &Isometry3<f64>) -> Isometry3<f64> {
-    // 5 cm along each axis and 10 degrees on each Euler angle, as in Sec. 4.2.3.
-    let (r, p, y) = pose.rotation.euler_angles();
-    let d = 10f64.to_radians();
-    Isometry3::from_parts(
-        Translation3::from(pose.translation.vector + Vector3::new(0.05, 0.05, 0.05)),
-        UnitQuaternion::from_euler_angles(r + d, p + d, y + d),
-    )
-}
-
 #[test]
 fn converges_from_a_perturbed_start_on_a_moving_box() {
     let dt = 1.0 / 30.0;
-    let start = offset(&true_pose(0.0));
+    let start = perturbed_start(&true_pose(0.0));
     let mut f = MaskUkf::new(model(), MaskUkfConfig::default(), &PoseVelocity::at_rest(start)).unwrap();
     for k in 1..=60 {
         let truth = true_pose(k as f64 * dt);

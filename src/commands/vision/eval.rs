@@ -3,14 +3,14 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use slidetrack_estimators::metrics::SequenceMetrics;
+use slidetrack_estimators::metrics::{SequenceMetrics, perturbed_start};
 use slidetrack_experiment::vision_sim::{evaluate_variant, maskukf_on_sequence};
 use slidetrack_sim::rgbd::{FastSequenceConfig, SimObjectKind};
 use slidetrack_vision::eval::{Scored, Variant, errors, track};
 use slidetrack_vision::sources::SlowNetworkConfig;
 use slidetrack_vision::{TrackerSettings, build_tracker};
 
-use super::inputs::{InputOptions, Prepared, perturbed, prepare};
+use super::inputs::{InputOptions, Prepared, prepare};
 use crate::cli::VisionEvalArgs as EvalArgs;
 
 /// One row of the results.
@@ -82,7 +82,7 @@ fn simulated(args: &EvalArgs, quiet: bool) -> Result<Vec<Row>> {
                 c.motion.max_angular_speed_dps = c.motion.max_angular_speed_dps.min(45.0);
             }
             let first = slidetrack_sim::rgbd::FastSequence::new(c.clone())?.truth(0).camera_from_object;
-            let (frames, model) = maskukf_on_sequence(&c, perturbed(&first), &settings)?;
+            let (frames, model) = maskukf_on_sequence(&c, perturbed_start(&first), &settings)?;
             all.extend(errors(&frames, 0, Scored::Tracker, &*model.object_points()?));
         }
         rows.push(Row { label: label.into(), metrics: slidetrack_estimators::metrics::summarize(&all) });

@@ -4,8 +4,9 @@
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::Isometry3;
 use slidetrack_core::CameraIntrinsics;
+use slidetrack_estimators::metrics::perturbed_start;
 use slidetrack_session::{ReadOptions, SessionInfo};
 use slidetrack_sim::rgbd::SimObjectKind;
 use slidetrack_vision::ObjectModel;
@@ -83,7 +84,7 @@ pub fn prepare(input: &Path, o: &InputOptions<'_>) -> Result<Prepared> {
             let truth = first.with_context(|| {
                 format!("{}: the first frame has no true pose for --init", input.display())
             })?;
-            Some(if o.init == InitArg::Perturbed { perturbed(&truth) } else { truth })
+            Some(if o.init == InitArg::Perturbed { perturbed_start(&truth) } else { truth })
         }
     };
     Ok(Prepared { source: Box::new(source), measurements, model, intrinsics, initial_pose })
@@ -113,16 +114,6 @@ pub fn own_measurements(
         }
         other => bail!("--measurements {other:?} comes with an input, not from the frames"),
     })
-}
-
-/// 5 cm along each axis and 10 degrees on each Euler angle away (Sec. 4.2.3).
-pub fn perturbed(pose: &Isometry3<f64>) -> Isometry3<f64> {
-    let (r, p, y) = pose.rotation.euler_angles();
-    let d = 10f64.to_radians();
-    Isometry3::from_parts(
-        Translation3::from(pose.translation.vector + Vector3::new(0.05, 0.05, 0.05)),
-        UnitQuaternion::from_euler_angles(r + d, p + d, y + d),
-    )
 }
 
 /// The model: a file, or `sim` for the object of a simulated session.

@@ -26,10 +26,11 @@ use slidetrack_vision::{
     ObjectModel, OnlineTracker, TrackedState, TrackerSettings, VisionError, build_tracker,
 };
 
-use super::inputs::{InputOptions, load_model, own_measurements, perturbed};
+use super::inputs::{InputOptions, load_model, own_measurements};
 use super::live_camera::{self, LiveCamera};
 use super::track::external_config;
 use crate::cli::{InitArg, MeasurementsArg, VisionTrackArgs as TrackArgs};
+use slidetrack_estimators::metrics::perturbed_start;
 
 /// JPEG quality of the recorded colour frames.
 const JPEG_QUALITY: i32 = 90;
@@ -200,7 +201,7 @@ fn start_tracker(
             let truth = first.truth.as_ref().map(|t| t.camera_from_object).context(
                 "--init truth|perturbed needs the truth of the first frame: a replayed simulated session",
             )?;
-            Some(if args.init == InitArg::Perturbed { perturbed(&truth) } else { truth })
+            Some(if args.init == InitArg::Perturbed { perturbed_start(&truth) } else { truth })
         }
     };
     let settings = TrackerSettings { initial_pose, ..TrackerSettings::default() };
