@@ -57,15 +57,7 @@ impl MaskedCloud {
 /// `C(M, D)` (3.29): every pixel of `mask` with a valid depth, back-projected
 /// with `p_uv(d)` (3.28). Fails when the mask and depth sizes differ.
 pub fn masked_cloud(depth: &DepthImage, mask: &Mask, camera: &Pinhole) -> Result<MaskedCloud, VisionError> {
-    if (mask.width(), mask.height()) != (depth.width, depth.height) {
-        return Err(VisionError::SizeMismatch {
-            what: "mask",
-            width: mask.width(),
-            height: mask.height(),
-            expected_width: depth.width,
-            expected_height: depth.height,
-        });
-    }
+    VisionError::check_size("mask", (mask.width(), mask.height()), (depth.width, depth.height))?;
     let mut cloud = MaskedCloud::default();
     for (u, v) in mask.pixels() {
         cloud.mask_pixels += 1;

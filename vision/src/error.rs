@@ -115,6 +115,23 @@ pub(crate) trait OpenCvContext<T> {
     fn cv(self, context: &'static str) -> Result<T, VisionError>;
 }
 
+impl VisionError {
+    /// `Ok` when an image of `size` (width, height in px) has the `expected`
+    /// size; otherwise [`VisionError::SizeMismatch`] naming `what`.
+    pub fn check_size(what: &'static str, size: (u32, u32), expected: (u32, u32)) -> Result<(), VisionError> {
+        if size == expected {
+            return Ok(());
+        }
+        Err(VisionError::SizeMismatch {
+            what,
+            width: size.0,
+            height: size.1,
+            expected_width: expected.0,
+            expected_height: expected.1,
+        })
+    }
+}
+
 impl<T> OpenCvContext<T> for opencv::Result<T> {
     fn cv(self, context: &'static str) -> Result<T, VisionError> {
         self.map_err(|e| VisionError::OpenCv { context, message: e.message })

@@ -163,27 +163,15 @@ impl CameraPair {
         let mut depth =
             decode_depth(&d.encoded.ok_or(bad("depth frame"))?.bytes, self.settings.depth_scale_m)?;
         let k = &self.settings.color_intrinsics;
-        if (color.width, color.height) != (k.width, k.height) {
-            return Err(VisionError::SizeMismatch {
-                what: "colour frame",
-                width: color.width,
-                height: color.height,
-                expected_width: k.width,
-                expected_height: k.height,
-            });
-        }
+        VisionError::check_size("colour frame", (color.width, color.height), (k.width, k.height))?;
         if let Some(r) = &self.settings.registration {
             depth = register_depth_to_color(&depth, &r.depth_intrinsics, k, &r.color_from_depth)?;
         }
-        if (color.width, color.height) != (depth.width, depth.height) {
-            return Err(VisionError::SizeMismatch {
-                what: "depth frame (registered depth has the colour frames' size)",
-                width: depth.width,
-                height: depth.height,
-                expected_width: color.width,
-                expected_height: color.height,
-            });
-        }
+        VisionError::check_size(
+            "depth frame (registered depth has the colour frames' size)",
+            (depth.width, depth.height),
+            (color.width, color.height),
+        )?;
         let frame =
             RgbdFrame { t: TimeNs(d.t.0), sequence: self.sequence, color, depth, intrinsics: k.clone() };
         self.sequence += 1;

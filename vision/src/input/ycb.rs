@@ -172,15 +172,7 @@ impl YcbDirectory {
         let color = bgr_mat_to_rgb(&color, "colour image")?;
         let depth = imread(&path("depth.png"), imgcodecs::IMREAD_ANYDEPTH)?;
         let depth = depth_mat(&depth, 1.0 / self.factor_depth, "depth image")?;
-        if (color.width, color.height) != (depth.width, depth.height) {
-            return Err(VisionError::SizeMismatch {
-                what: "depth image",
-                width: depth.width,
-                height: depth.height,
-                expected_width: color.width,
-                expected_height: color.height,
-            });
-        }
+        VisionError::check_size("depth image", (depth.width, depth.height), (color.width, color.height))?;
         let t = TimeNs((index as f64 / 30.0 * 1e9).round() as u64);
         let truth = if path("meta.mat").exists() {
             read_meta(&path("meta.mat"))?.pose_of(self.class).map(|camera_from_object| ObjectTruth {
