@@ -34,9 +34,23 @@ pub enum RgbdCameraConfig {
     /// Colour and depth from two V4L2 nodes of one camera (a RealSense over
     /// `uvcvideo`).
     V4l2(Box<V4l2RgbdConfig>),
-    /// A recording replayed in real time as two cameras, standing in for
-    /// the device (dry runs, tests).
+    /// A recording replayed as two cameras, standing in for the device
+    /// (dry runs, tests).
     Recording(Box<RecordedRgbdConfig>),
+}
+
+/// How fast a recording standing in for a camera delivers its frames.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReplayPace {
+    /// On the wall clock, as the camera did: a reader slower than the
+    /// frame rate loses frames, as it would on the device.
+    #[default]
+    Realtime,
+    /// Every frame, each once the reader has finished with the previous
+    /// one, on the recording's own clock: a slow machine processes the same
+    /// frames with the same times as a fast one (reproducible dry runs).
+    EveryFrame,
 }
 
 /// Colour and depth from two V4L2 nodes.
@@ -110,6 +124,8 @@ pub struct RecordedRgbdConfig {
     pub pairing_tolerance_ms: Option<f64>,
     /// Longest time without a complete pair (ms).
     pub pair_timeout_ms: u64,
+    /// `"realtime"` (default) or `"every-frame"`.
+    pub pace: ReplayPace,
 }
 
 impl Default for RecordedRgbdConfig {
@@ -125,6 +141,7 @@ impl Default for RecordedRgbdConfig {
             color_delay_ms: 0.0,
             pairing_tolerance_ms: None,
             pair_timeout_ms: 5000,
+            pace: ReplayPace::Realtime,
         }
     }
 }

@@ -25,6 +25,7 @@ mod error;
 pub mod eval;
 pub mod flow;
 pub mod input;
+pub mod live;
 pub mod model;
 pub mod online;
 pub mod record;

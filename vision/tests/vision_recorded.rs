@@ -2,7 +2,8 @@
 //! due on the session clock at their recorded time plus the replay's
 //! offset, a slow reader loses the oldest, the replay ends, and through
 //! [`CameraPair`] (colour delayed as on unsynchronised nodes, identity
-//! extrinsics) every frame comes back as recorded, with its truth.
+//! extrinsics) every frame comes back as recorded, with its truth; paced
+//! frame by frame, a slow reader on the wall clock loses none.
 
 #![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
@@ -66,7 +67,7 @@ fn record(path: &Path) {
 }
 
 fn options() -> ReplayOptions {
-    ReplayOptions { color_delay_ns: 0, color_intrinsics: None, depth_intrinsics: None, directory_fps: 30.0 }
+    ReplayOptions::default()
 }
 
 #[test]
@@ -76,7 +77,7 @@ fn frames_are_due_at_their_recorded_time_plus_the_offset() {
     record(&session);
     let clock = SimClock::new();
     clock.sleep_until(TimeNs(5_000_000_000));
-    let RecordedRgbd { mut color, mut depth, ended, offset_ns } =
+    let RecordedRgbd { mut color, mut depth, ended, offset_ns, .. } =
         RecordedRgbd::open_session(&session, Arc::new(clock.clone()), &options()).unwrap();
     // The first frame (recorded at 0) is due now, at 5 s.
     assert_eq!(offset_ns, 5_000_000_000);
@@ -149,4 +150,41 @@ fn a_camera_pair_on_the_replay_gives_back_every_recorded_frame_with_its_truth() 
     assert!(pair.next_frame().unwrap().is_none());
     let counts = pair.counts();
     assert_eq!((counts.pairs, counts.skipped_pairs), (FRAMES as u64, 0), "{counts:?}");
+}
+
+/// Paced frame by frame, a reader slower than the frame rate (50 ms per
+/// frame against 33 ms) on the wall clock gets every frame once, at its
+/// recorded time plus the offset, and the replay ends. On the wall clock's
+/// pace the same reader loses frames (the first test).
+#[test]
+fn every_frame_pacing_gives_a_slow_reader_every_frame_at_its_recorded_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("s.mcap");
+    record(&session);
+    let clock = slidetrack_core::WallClock::start();
+    let options = ReplayOptions { color_delay_ns: 7_000_000, every_frame: true, ..options() };
+    let replay = RecordedRgbd::open_session(&session, Arc::new(clock), &options).unwrap();
+    let settings = PairSettings {
+        color_intrinsics: replay.color.intrinsics().clone(),
+        depth_scale_m: 0.001,
+        tolerance: Duration::from_millis(16),
+        timeout: Duration::from_millis(500),
+        registration: None,
+    };
+    let (offset, pacer) = (replay.offset_ns, replay.pacer().unwrap());
+    let mut pair = CameraPair::new(Box::new(replay.color), Box::new(replay.depth), settings)
+        .with_end(replay.ended)
+        .with_pacer(pacer);
+    let mut times = Vec::new();
+    while let Some(sample) = pair.next_frame().unwrap() {
+        times.push(i128::from(sample.frame.t.0) - offset);
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let recorded: Vec<i128> = (0..FRAMES as i128).map(|k| k * i128::from(PERIOD_NS)).collect();
+    assert_eq!(times.len(), FRAMES, "{times:?}");
+    for (got, want) in times.iter().zip(&recorded) {
+        assert!(got.abs_diff(*want) < 1_000, "{times:?} against {recorded:?}");
+    }
+    let counts = pair.counts();
+    assert_eq!((counts.pairs, counts.skipped_pairs, counts.unpaired_depth), (FRAMES as u64, 0, 0));
 }

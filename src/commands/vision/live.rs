@@ -14,26 +14,21 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail, ensure};
 use serde_json::json;
 use slidetrack_core::{Clock, TimeNs, WallClock};
+use slidetrack_estimators::metrics::perturbed_start;
 use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_session::{ReadOptions, Recorder, RecorderOptions};
-use slidetrack_vision::eval::{Scored, TrackedFrame, score};
-use slidetrack_vision::input::{RecordedTruth, RgbdSample, RgbdSource, encode_color_jpeg};
-use slidetrack_vision::record::{EstimateChannels, RgbdChannels};
+use slidetrack_vision::eval::{Scored, score};
+use slidetrack_vision::input::{RecordedTruth, RgbdSample, RgbdSource};
+use slidetrack_vision::live::LiveTracking;
 use slidetrack_vision::sources::{
     Arrivals, FrameTruth, MeasurementSource, SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
 };
-use slidetrack_vision::{
-    ObjectModel, OnlineTracker, TrackedState, TrackerSettings, VisionError, build_tracker,
-};
+use slidetrack_vision::{ObjectModel, TrackerSettings, VisionError};
 
 use super::inputs::{InputOptions, load_model, own_measurements};
 use super::live_camera::{self, LiveCamera};
 use super::track::external_config;
 use crate::cli::{InitArg, MeasurementsArg, VisionTrackArgs as TrackArgs};
-use slidetrack_estimators::metrics::perturbed_start;
-
-/// JPEG quality of the recorded colour frames.
-const JPEG_QUALITY: i32 = 90;
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let rig_path = args.rig.as_deref().context("--live needs --rig rig.toml")?;
@@ -53,129 +48,66 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let mut truth = session.map(RecordedTruth::open).transpose()?;
     let offset_ns = replayed.as_ref().map_or(0, |(_, o)| *o);
     let intrinsics = camera.pair.intrinsics().clone();
-    let mut measurements = measurements(args, session, offset_ns, &model, &intrinsics)?;
-    let output = Output::open(args, rig_path, offset_ns, &model, &intrinsics)?;
+    let measurements = measurements(args, session, offset_ns, &model, &intrinsics)?;
+    let recorder =
+        args.out.as_ref().map(|path| recorder(args, path, rig_path, offset_ns, &model)).transpose()?;
     if !quiet {
         eprintln!("tracking live on the [rgbd] camera of {} (Ctrl-C stops)", rig_path.display());
     }
     let stop = crate::commands::stop_flag();
     let started = Instant::now();
-    let limit = args.duration.map(Duration::from_secs_f64);
-    let mut tracker: Option<Box<dyn OnlineTracker>> = None;
-    let mut tally = Tally::default();
-    while !stop.load(Ordering::SeqCst) && limit.is_none_or(|l| started.elapsed() < l) {
-        let Some(mut sample) = camera.pair.next_frame()? else { break };
+    let until = args.duration.map(|d| started + Duration::from_secs_f64(d));
+    let mut next = |camera: &mut LiveCamera| -> Result<Option<RgbdSample>> {
+        let Some(mut sample) = camera.pair.next_frame()? else { return Ok(None) };
         if let Some(truth) = truth.as_mut() {
             attach_truth(&mut sample, truth, offset_ns)?;
         }
-        let tracker = match &mut tracker {
-            Some(t) => t,
-            None => tracker.insert(start_tracker(args, &model, &intrinsics, &sample)?),
-        };
-        let frame_truth = sample.truth.as_ref().zip(sample.truth_mask.as_ref());
-        let arrivals = measurements.on_rgbd_frame(
-            &sample.frame,
-            frame_truth.map(|(t, m)| FrameTruth { camera_from_object: &t.camera_from_object, mask: m }),
-        )?;
-        let step = Instant::now();
-        let state = tracker.process(&sample.frame, &arrivals)?;
-        tally.busy += step.elapsed();
-        output.log(&sample, state.as_ref())?;
-        tally.add(sample, state, &arrivals);
+        Ok(Some(sample))
+    };
+    let mut tracking = None;
+    if let Some(first) = next(&mut camera)? {
+        let settings =
+            TrackerSettings { initial_pose: initial_pose(args, &first)?, ..TrackerSettings::default() };
+        let mut t = LiveTracking::new(args.tracker.kind(), model, intrinsics, &settings, measurements)?;
+        if let Some(r) = &recorder {
+            t = t.recording_to(&r.logger())?;
+        }
+        t.on_sample(first)?;
+        while !stop.load(Ordering::SeqCst) && until.is_none_or(|u| Instant::now() < u) {
+            let Some(sample) = next(&mut camera)? else { break };
+            t.on_sample(sample)?;
+        }
+        tracking = Some(t);
     }
-    if let Some(r) = output.recorder {
+    if let Some(r) = recorder {
         r.finish()?;
     }
-    let results = &tally.results;
+    let tracking = tracking.context("the camera delivered no frame")?;
+    let results = tracking.results();
     let first = results.iter().position(|f| f.estimate.is_some()).unwrap_or(results.len());
     let metrics = (first < results.len())
-        .then(|| model.object_points().map(|points| score(results, first, Scored::Tracker, &points)))
+        .then(|| {
+            tracking.model().object_points().map(|points| score(results, first, Scored::Tracker, &points))
+        })
         .transpose()?;
+    let counts = tracking.counts();
     let summary = json!({
         "tracker": args.tracker.kind().name(),
         "rig": rig_path,
-        "frames": tally.frames,
-        "tracked": tally.tracked,
+        "frames": counts.frames,
+        "tracked": counts.tracked,
         "seconds": started.elapsed().as_secs_f64(),
-        "tracker_fps": if tally.busy.is_zero() { 0.0 } else { tally.frames as f64 / tally.busy.as_secs_f64() },
+        "tracker_fps": counts.tracker_fps(),
         "pairing": camera.pair.counts(),
         "streams": camera.counts(),
         "estimates": args.out,
         "metrics": metrics,
     });
     report(args, &summary, &camera);
-    if let Some(summary) = measurements.summary() {
+    if let Some(summary) = tracking.measurement_summary() {
         eprintln!("{summary}");
     }
     Ok(())
-}
-
-/// What a run counted, and the estimates with the truth when it has one.
-#[derive(Default)]
-struct Tally {
-    frames: usize,
-    tracked: usize,
-    busy: Duration,
-    results: Vec<TrackedFrame>,
-    last_pose: Option<nalgebra::Isometry3<f64>>,
-}
-
-impl Tally {
-    fn add(&mut self, sample: RgbdSample, state: Option<TrackedState>, arrivals: &Arrivals) {
-        if let Some(p) = arrivals.latest_pose() {
-            self.last_pose = Some(p.value);
-        }
-        self.frames += 1;
-        self.tracked += usize::from(state.is_some());
-        if let Some(truth) = sample.truth {
-            self.results.push(TrackedFrame {
-                truth,
-                flow_velocity: state.as_ref().and_then(|s| s.flow_velocity),
-                estimate: state.map(|s| s.estimate),
-                last_measured_pose: self.last_pose,
-            });
-        }
-    }
-}
-
-/// The session of a live run (`--out`) and its channels.
-struct Output {
-    recorder: Option<Recorder>,
-    channels: Option<(RgbdChannels, EstimateChannels)>,
-}
-
-impl Output {
-    fn open(
-        args: &TrackArgs,
-        rig: &Path,
-        offset_ns: i128,
-        model: &ObjectModel,
-        intrinsics: &slidetrack_core::CameraIntrinsics,
-    ) -> Result<Output> {
-        let recorder =
-            args.out.as_ref().map(|path| recorder(args, path, rig, offset_ns, model)).transpose()?;
-        let channels = match &recorder {
-            Some(r) => Some((
-                RgbdChannels::register(&r.logger(), intrinsics)?,
-                EstimateChannels::register(&r.logger(), args.tracker.kind())?,
-            )),
-            None => None,
-        };
-        Ok(Output { recorder, channels })
-    }
-
-    /// Records the frame (colour as JPEG), its truth and the estimate.
-    fn log(&self, sample: &RgbdSample, state: Option<&TrackedState>) -> Result<()> {
-        let (Some(r), Some((rgbd, estimates))) = (&self.recorder, &self.channels) else {
-            return Ok(());
-        };
-        let jpeg = encode_color_jpeg(&sample.frame.color, JPEG_QUALITY)?;
-        rgbd.log_frame(&r.logger(), &sample.frame, &jpeg, sample.truth.as_ref(), None)?;
-        if let Some(s) = state {
-            estimates.log(&r.logger(), s)?;
-        }
-        Ok(())
-    }
 }
 
 /// The truth a replayed session recorded for this frame, on the run's clock.
@@ -188,14 +120,9 @@ fn attach_truth(sample: &mut RgbdSample, truth: &mut RecordedTruth, offset_ns: i
     Ok(())
 }
 
-/// The tracker, started as `--init` says from the first frame.
-fn start_tracker(
-    args: &TrackArgs,
-    model: &ObjectModel,
-    intrinsics: &slidetrack_core::CameraIntrinsics,
-    first: &RgbdSample,
-) -> Result<Box<dyn OnlineTracker>> {
-    let initial_pose = match args.init {
+/// Where the tracker starts, as `--init` says, from the first frame.
+fn initial_pose(args: &TrackArgs, first: &RgbdSample) -> Result<Option<nalgebra::Isometry3<f64>>> {
+    Ok(match args.init {
         InitArg::Measurement => None,
         InitArg::Truth | InitArg::Perturbed => {
             let truth = first.truth.as_ref().map(|t| t.camera_from_object).context(
@@ -203,9 +130,7 @@ fn start_tracker(
             )?;
             Some(if args.init == InitArg::Perturbed { perturbed_start(&truth) } else { truth })
         }
-    };
-    let settings = TrackerSettings { initial_pose, ..TrackerSettings::default() };
-    Ok(build_tracker(args.tracker.kind(), model, intrinsics, &settings)?)
+    })
 }
 
 /// Masks and poses for a live run: the sources that see the frames

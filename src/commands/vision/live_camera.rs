@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion};
 use slidetrack_core::{Clock, parse_toml};
-use slidetrack_drivers::rgbd_config::{DepthToColor, RecordedRgbdConfig, RgbdCameraConfig};
+use slidetrack_drivers::rgbd_config::{DepthToColor, RecordedRgbdConfig, ReplayPace, RgbdCameraConfig};
 use slidetrack_vision::input::{CameraPair, DepthRegistration, PairSettings, RecordedRgbd, ReplayOptions};
 
 /// A reporter of a camera's frame counts, for the end of a run.
@@ -75,6 +75,7 @@ fn open_recording(r: &RecordedRgbdConfig, rig_dir: &Path, clock: Arc<dyn Clock>)
         color_intrinsics: r.color_intrinsics.clone(),
         depth_intrinsics: r.depth_intrinsics.clone(),
         directory_fps: r.fps,
+        every_frame: r.pace == ReplayPace::EveryFrame,
     };
     let (replay, session, depth_scale_m) = match (&r.session, &r.directory) {
         (Some(session), _) => {
@@ -112,8 +113,12 @@ fn open_recording(r: &RecordedRgbdConfig, rig_dir: &Path, clock: Arc<dyn Clock>)
         })
     };
     let offset = replay.offset_ns;
-    let pair =
+    let pacer = replay.pacer();
+    let mut pair =
         CameraPair::new(Box::new(replay.color), Box::new(replay.depth), settings).with_end(replay.ended);
+    if let Some(pacer) = pacer {
+        pair = pair.with_pacer(pacer);
+    }
     Ok(LiveCamera {
         pair,
         replay: session.map(|s| (s, offset)),

@@ -68,7 +68,12 @@ pub struct CameraPair {
     sequence: u64,
     counts: PairCounts,
     ended: Option<Arc<AtomicBool>>,
+    pacer: Option<Pacer>,
 }
+
+/// What moves a replay's own clock on while the reader waits; false when
+/// there is nothing left to move to.
+pub type Pacer = Box<dyn FnMut() -> bool + Send>;
 
 impl CameraPair {
     /// Pairs `color` and `depth` frames as `settings` say.
@@ -83,6 +88,7 @@ impl CameraPair {
             sequence: 0,
             counts: PairCounts::default(),
             ended: None,
+            pacer: None,
         }
     }
 
@@ -90,6 +96,13 @@ impl CameraPair {
     /// and no pair is left: the end of a replayed recording.
     pub fn with_end(mut self, ended: Arc<AtomicBool>) -> CameraPair {
         self.ended = Some(ended);
+        self
+    }
+
+    /// Waits for frames by calling `pacer` instead of sleeping: a replay on
+    /// its own clock ([`super::RecordedRgbd::pacer`]).
+    pub fn with_pacer(mut self, pacer: Pacer) -> CameraPair {
+        self.pacer = Some(pacer);
         self
     }
 
@@ -200,6 +213,9 @@ impl RgbdSource for CameraPair {
             }
             if ended {
                 return Ok(None);
+            }
+            if self.pacer.as_mut().is_some_and(|pace| pace()) {
+                continue;
             }
             if started.elapsed() > self.settings.timeout {
                 let detail = format!(

@@ -12,7 +12,7 @@ pub mod registration;
 mod session;
 mod ycb;
 
-pub use camera_pair::{CameraPair, DepthRegistration, PairCounts, PairSettings};
+pub use camera_pair::{CameraPair, DepthRegistration, Pacer, PairCounts, PairSettings};
 pub use recorded::{RecordedCamera, RecordedRgbd, ReplayCounts, ReplayOptions};
 pub use recorded_truth::RecordedTruth;
 pub use registration::register_depth_to_color;

@@ -1,18 +1,27 @@
 //! [`RecordedRgbd`]: a recording standing in for a live RGB-D camera. The
 //! colour and depth frames of a session (`/rgbd/color`, `/rgbd/depth`) or of
 //! a directory (`NNNNNN-color.png`, `NNNNNN-depth.png`) are replayed as two
-//! [`Camera`]s, paced in real time on the session clock: a frame recorded at
-//! `t` is delivered once the clock reads `t + offset` and carries that time,
-//! so the live path ([`super::CameraPair`]: pairing, registration) runs on
-//! them as on a device. A reader that falls behind loses the oldest frames,
-//! as a camera with a queue of four buffers does.
+//! [`Camera`]s on a clock: a frame recorded at `t` is delivered once the
+//! clock reads `t + offset` and carries that time, so the live path
+//! ([`super::CameraPair`]: pairing, registration) runs on them as on a
+//! device.
+//!
+//! - By default the clock is the run's wall clock. A reader that falls
+//!   behind loses the oldest frames, as a camera with a queue of four
+//!   buffers does.
+//! - With [`ReplayOptions::every_frame`] the clock is the replay's own, and moves to
+//!   the next recorded frame only when the reader waits for one
+//!   ([`RecordedRgbd::pacer`]). Every frame is delivered with the same time
+//!   however slow the reader is.
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-use slidetrack_core::{Camera, CameraIntrinsics, Clock, DeviceError, EncodedImage, ErrorKind, Frame, TimeNs};
+use slidetrack_core::{
+    Camera, CameraIntrinsics, Clock, DeviceError, EncodedImage, ErrorKind, Frame, SimClock, TimeNs,
+};
 use slidetrack_session::{
     ChannelMessage, MessageReader, ReadOptions, RgbdCalibration, RgbdColor, RgbdDepth, read_channel,
 };
@@ -38,6 +47,21 @@ pub struct ReplayOptions {
     pub depth_intrinsics: Option<CameraIntrinsics>,
     /// Frame rate of a directory's frames (Hz).
     pub directory_fps: f64,
+    /// Every frame on the replay's own clock (see the module's doc), instead
+    /// of on the wall clock.
+    pub every_frame: bool,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        ReplayOptions {
+            color_delay_ns: 0,
+            color_intrinsics: None,
+            depth_intrinsics: None,
+            directory_fps: 30.0,
+            every_frame: false,
+        }
+    }
 }
 
 /// Counts of a replayed camera.
@@ -69,6 +93,8 @@ pub struct RecordedRgbd {
     pub ended: Arc<AtomicBool>,
     /// Session time minus recording time of every depth frame (ns).
     pub offset_ns: i128,
+    /// The replay's own clock, with [`ReplayOptions::every_frame`].
+    own_clock: Option<SimClock>,
 }
 
 impl RecordedRgbd {
@@ -161,6 +187,16 @@ impl RecordedRgbd {
             .map(|(t, _)| *t)
             .ok_or_else(|| VisionError::BadFile { path: name.into(), detail: "no depth frames".into() })?;
         let offset_ns = i128::from(clock.now().0) - i128::from(first_t.0);
+        let own_clock = options.every_frame.then(|| {
+            // Starts where the run's clock is, so times read the same.
+            let own = SimClock::new();
+            own.sleep_until(clock.now());
+            own
+        });
+        let clock: Arc<dyn Clock> = match &own_clock {
+            Some(own) => Arc::new(own.clone()),
+            None => clock,
+        };
         let ended = Arc::new(AtomicBool::new(false));
         let depth_intrinsics = options.depth_intrinsics.clone().unwrap_or_else(|| color_intrinsics.clone());
         let camera = |device: String, first, rest, intrinsics, delay_ns: i64| RecordedCamera {
@@ -174,6 +210,7 @@ impl RecordedRgbd {
             sequence: 0,
             ended: Arc::clone(&ended),
             counts: Arc::default(),
+            next_t: Arc::new(AtomicU64::new(u64::MAX)),
         };
         Ok(RecordedRgbd {
             color: camera(
@@ -186,7 +223,25 @@ impl RecordedRgbd {
             depth: camera(format!("{name} (depth)"), first_depth, depths, depth_intrinsics, 0),
             ended,
             offset_ns,
+            own_clock,
         })
+    }
+
+    /// With [`ReplayOptions::every_frame`], what moves the replay's clock on
+    /// when the reader waits ([`super::CameraPair::with_pacer`]): to the
+    /// earliest frame either camera has not delivered. It returns false when
+    /// both have delivered everything. `None` on the wall clock.
+    pub fn pacer(&self) -> Option<super::camera_pair::Pacer> {
+        let clock = self.own_clock.clone()?;
+        let (color, depth) = (Arc::clone(&self.color.next_t), Arc::clone(&self.depth.next_t));
+        Some(Box::new(move || {
+            let next = color.load(Ordering::SeqCst).min(depth.load(Ordering::SeqCst));
+            if next == u64::MAX || next <= clock.now().0 {
+                return next != u64::MAX;
+            }
+            clock.sleep_until(TimeNs(next));
+            true
+        }))
     }
 }
 
@@ -222,6 +277,9 @@ pub struct RecordedCamera {
     sequence: u64,
     ended: Arc<AtomicBool>,
     counts: Arc<ReplayCounts>,
+    /// Session time of the next frame not yet due (`u64::MAX`: none left),
+    /// for [`RecordedRgbd::pacer`].
+    next_t: Arc<AtomicU64>,
 }
 
 impl RecordedCamera {
@@ -252,6 +310,7 @@ impl Camera for RecordedCamera {
                     }
                     None => {
                         self.ended.store(true, Ordering::SeqCst);
+                        self.next_t.store(u64::MAX, Ordering::SeqCst);
                         break;
                     }
                 }
@@ -259,6 +318,7 @@ impl Camera for RecordedCamera {
             let Some((recorded, _)) = &self.first else { break };
             let t = self.session_time(*recorded);
             if t > now {
+                self.next_t.store(t.0, Ordering::SeqCst);
                 break;
             }
             let Some((_, image)) = self.first.take() else { break };
