@@ -1,8 +1,9 @@
 //! The live trackers of `slidetrack track`: the dEKF on every tactile scan
 //! and a causal constant-velocity Kalman filter on the marker, recorded
 //! beside the trial (`/tactile/derivative`, `/estimate/dekf`,
-//! `/estimate/aruco`) and shown in the terminal; on the simulated rig, a
-//! vision tracker on the rendered in-hand RGB-D scene beside them.
+//! `/estimate/aruco`) and shown in the terminal; beside them a vision
+//! tracker, on the simulated rig's rendered in-hand RGB-D scene or, on a
+//! hardware rig, on its RGB-D camera in a thread of its own.
 #![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use std::sync::{Arc, Mutex};
@@ -23,6 +24,7 @@ use slidetrack_session::{
 use crate::dekf_run::{CM, DekfStage, estimate_message, estimate_metadata};
 use crate::observer::TrialExtension;
 use crate::vision_inhand::InHandVision;
+use slidetrack_vision::live::LiveThread;
 
 /// The causal half of the ground truth's filter: the constant-velocity model
 /// of eq. (6.13) on the marker position, predicted to each camera frame and
@@ -112,6 +114,33 @@ pub struct LiveStatus {
     pub vision: Option<[f64; 2]>,
     /// Vision tracker errors against the simulator's truth until the release.
     pub vision_errors: ErrorSums,
+    /// The vision tracker on the rig's RGB-D camera, once its thread ended.
+    pub camera_vision: Option<CameraVisionSummary>,
+}
+
+/// When the vision tracker on a camera's frames stops.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VisionEnd {
+    /// With the trial (a live camera).
+    WithTheTrial,
+    /// At the end of its frames, however long after the trial (recorded
+    /// frames, which a replay reads faster than real time).
+    WithItsFrames,
+}
+
+/// What the vision tracker on a rig's RGB-D camera did.
+#[derive(Clone, Debug, Default)]
+pub struct CameraVisionSummary {
+    /// Frames processed.
+    pub frames: usize,
+    /// Frames with an estimate.
+    pub tracked: usize,
+    /// Frames per second of the tracker alone.
+    pub tracker_fps: f64,
+    /// The measurement source's summary line.
+    pub measurements: Option<String>,
+    /// Why the loop stopped before the trial did, if it did.
+    pub error: Option<String>,
 }
 
 /// Shortest session time between two redraws of the live line (s).
@@ -125,6 +154,9 @@ pub struct LiveTrackers {
     dekf_ch: ChannelHandle<DekfEstimate>,
     marker: Option<(MarkerFilter, ChannelHandle<ArucoEstimate>)>,
     vision: Option<InHandVision>,
+    /// The vision tracker on the rig's RGB-D camera, stopped when the
+    /// trackers are dropped (before the session is finished).
+    camera_vision: Option<(LiveThread, VisionEnd)>,
     /// Latest simulator truth `(p, v)` (m, m/s) and its position when the dEKF started.
     truth: Option<[f64; 2]>,
     truth_origin: Option<f64>,
@@ -172,6 +204,7 @@ impl LiveTrackers {
             dekf_ch: logger.register::<DekfEstimate>(estimate_meta)?,
             marker,
             vision: None,
+            camera_vision: None,
             truth: None,
             truth_origin: None,
             released: false,
@@ -185,6 +218,14 @@ impl LiveTrackers {
     /// each camera frame (it records its own channels).
     pub fn with_vision(mut self, vision: InHandVision) -> LiveTrackers {
         self.vision = Some(vision);
+        self
+    }
+
+    /// Also runs a vision tracker on the rig's RGB-D camera, on its own
+    /// thread (recording to the session itself); its summary goes to the
+    /// status once the trackers are dropped.
+    pub fn with_camera_vision(mut self, thread: LiveThread, end: VisionEnd) -> LiveTrackers {
+        self.camera_vision = Some((thread, end));
         self
     }
 
@@ -245,6 +286,33 @@ impl LiveTrackers {
             Err(_) => return,
         };
         self.draw(&snapshot);
+    }
+}
+
+impl Drop for LiveTrackers {
+    /// Stops the camera's vision thread, if any, and keeps its summary.
+    fn drop(&mut self) {
+        let Some((thread, end)) = self.camera_vision.take() else { return };
+        let ended = match end {
+            VisionEnd::WithTheTrial => thread.stop(),
+            VisionEnd::WithItsFrames => thread.wait_for_end(),
+        };
+        let summary = match ended {
+            Ok((tracking, ended)) => {
+                let counts = tracking.counts();
+                CameraVisionSummary {
+                    frames: counts.frames,
+                    tracked: counts.tracked,
+                    tracker_fps: counts.tracker_fps(),
+                    measurements: tracking.measurement_summary(),
+                    error: ended.err().map(|e| e.to_string()),
+                }
+            }
+            Err(e) => CameraVisionSummary { error: Some(e.to_string()), ..CameraVisionSummary::default() },
+        };
+        if let Ok(mut s) = self.status.lock() {
+            s.camera_vision = Some(summary);
+        }
     }
 }
 

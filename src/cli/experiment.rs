@@ -175,15 +175,48 @@ pub struct TrackArgs {
     /// Session file to write (default: sessions/<object>-s<seed>-t<trial>-track.mcap).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Also run a vision tracker beside the dEKF on the simulated rig's
-    /// in-hand RGB-D scene, fed by an imitation of a slow network (5 fps,
-    /// 200 ms late): `/estimate/pose/<tracker>` and friends.
+    /// Also run a vision tracker beside the dEKF (`/estimate/pose/<tracker>`
+    /// and friends). On the simulated rig it tracks the rendered in-hand
+    /// RGB-D scene, fed by an imitation of a slow network (5 fps, 200 ms
+    /// late); on a hardware rig the `[rgbd]` camera of `--config`, fed by
+    /// `--vision-measurements`, on its own thread, recording the frames
+    /// (`/rgbd/*`) into the same session.
     #[arg(long, value_enum)]
     pub vision: Option<VisionArg>,
-    /// With `--vision`: also record the rendered colour, depth and masks
-    /// (about 1 MB per frame).
+    /// With `--vision` on the simulated rig: also record the rendered
+    /// colour, depth and masks (about 1 MB per frame).
     #[arg(long, requires = "vision")]
     pub record_rgbd: bool,
+    /// With `--vision` on a hardware rig: the object model the tracker fits
+    /// (.obj, .ply or .xyz in metres, a simulated object's name such as
+    /// `cracker_box`, or `sim` for the object of a recording standing in
+    /// for the camera).
+    #[arg(long, requires = "vision")]
+    pub vision_model: Option<String>,
+    /// Scale of `--vision-model`'s coordinates to metres (0.001 for mm).
+    #[arg(long, default_value_t = 1.0)]
+    pub vision_model_scale: f64,
+    /// With `--vision` on a hardware rig: where masks and poses come from.
+    #[arg(long, value_enum, default_value_t = CameraMeasurementsArg::Aruco)]
+    pub vision_measurements: CameraMeasurementsArg,
+    /// The marker on the object, for `--vision-measurements aruco` (as
+    /// `vision track --aruco-config`).
+    #[arg(long)]
+    pub aruco_config: Option<PathBuf>,
+    /// The socket of `--vision-measurements external`.
+    #[command(flatten)]
+    pub external: super::ExternalArgs,
+}
+
+/// Masks and poses of a vision tracker on a real camera.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CameraMeasurementsArg {
+    /// Poses from an ArUco marker fixed to the object, masks rendered from
+    /// the model at them (`--aruco-config`).
+    Aruco,
+    /// Masks and poses from another process over a local socket
+    /// (`--listen`; protocol in docs/protocols.md).
+    External,
 }
 
 /// A vision tracker of `--vision`.

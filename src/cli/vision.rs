@@ -160,7 +160,7 @@ pub struct VisionTrackArgs {
 }
 
 /// The socket of `--measurements external`.
-#[derive(Debug, Args)]
+#[derive(Clone, Debug, Args)]
 pub struct ExternalArgs {
     /// Address the external source listens on (localhost TCP).
     #[arg(long, default_value = "127.0.0.1:7450")]

@@ -14,24 +14,25 @@ use slidetrack_experiment::dekf_run::load_model;
 use slidetrack_experiment::replay::{ReplayOptions, ReplaySession, check_rate};
 use slidetrack_experiment::rig::{RigKind, RigSetup, TrialSpec, build_rig};
 use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_experiment::tracking::{LiveStatus, LiveTrackers};
+use slidetrack_experiment::tracking::{CameraVisionSummary, LiveStatus, LiveTrackers, VisionEnd};
 use slidetrack_experiment::trial::{ExtensionFactory, prepare_out_dir, record_trial_with};
 use slidetrack_experiment::vision_inhand::{InHandVision, InHandVisionConfig};
 use slidetrack_live::LiveServer;
 use slidetrack_sim::ObjectConfig;
 use slidetrack_vision::TrackerKind;
 
+use super::vision::camera_vision::{self, CameraVision};
+use super::vision::live_camera::StreamCounts;
 use crate::cli::{RigArg, TrackArgs};
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     if !(args.run.duration.is_finite() && args.run.duration > 0.0) {
         bail!("--duration must be a positive number of seconds, got {}", args.run.duration);
     }
-    if args.vision.is_some() && (args.run.rig == RigArg::Hw || args.run.no_camera) {
+    if args.vision.is_some() && args.run.rig != RigArg::Hw && args.run.no_camera {
         bail!(
-            "--vision runs on the simulated rig's rendered RGB-D scene: it needs --rig sim (or a replay of a \
-             simulated session) and the camera; on a real RGB-D camera run `slidetrack vision track --live \
-             --rig RIG.toml` (with --measurements aruco or external) beside the tactile tracking"
+            "--vision on the simulated rig tracks its rendered in-hand RGB-D scene: drop --no-camera \
+             (on a hardware rig it tracks the [rgbd] camera of --config)"
         );
     }
     let model = load_model(&args.model)?;
@@ -60,7 +61,25 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         path,
         live: live.as_ref().map(LiveServer::tap),
     };
-    let setup = build_rig(kind, &spec)?;
+    let camera_config = match (kind, args.vision) {
+        (RigKind::Hw, Some(_)) => {
+            let path = args.run.config.as_deref().context(
+                "--vision on a hardware rig tracks the [rgbd] camera of the rig TOML: give --config RIG.toml",
+            )?;
+            camera_vision::requirements(args, &rig, path)?;
+            Some(path)
+        }
+        _ => None,
+    };
+    let mut setup = build_rig(kind, &spec)?;
+    let camera_vision = match (camera_config, args.vision) {
+        (Some(path), Some(v)) => {
+            let vision = camera_vision::open(args, v.into(), &rig, path, Arc::clone(&setup.rig.clock))?;
+            setup.extra_metadata.extend(vision.metadata.clone());
+            Some(vision)
+        }
+        _ => None,
+    };
     let rate = setup.tactile_info.rate_hz;
     let expected = model.meta.tactile_rate_hz;
     if (rate - expected).abs() > 0.05 * expected {
@@ -69,7 +88,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
             args.model.display()
         );
     }
-    let tracked = track_on(args, model, setup, &spec, quiet);
+    let tracked = track_on(args, model, setup, &spec, camera_vision, quiet);
     super::live::finish(live);
     tracked
 }
@@ -81,13 +100,20 @@ fn replay(args: &TrackArgs, model: &DekfModel, quiet: bool) -> Result<()> {
     };
     let session = ReplaySession::open(input)?;
     check_rate(&session, model)?;
-    if args.vision.is_some() && !session.has_truth {
-        bail!(
-            "{}: --vision on a replay renders the in-hand scene from the recorded /sim/truth, which this \
-             session does not have",
+    // A session with a camera's frames is tracked on them, with the masks
+    // and poses recorded beside them; a simulated session without them has
+    // its in-hand scene rendered again from its truth.
+    let camera_vision = match args.vision {
+        Some(kind) if camera_vision::has_frames(input)? => {
+            Some(camera_vision::open_recorded(args, kind.into(), input)?)
+        }
+        Some(_) if !session.has_truth => bail!(
+            "{}: --vision on a replay tracks the recorded RGB-D frames (/rgbd/*) or renders the in-hand \
+             scene from /sim/truth, and this session has neither",
             input.display()
-        );
-    }
+        ),
+        _ => None,
+    };
     let path = args.out.clone().unwrap_or_else(|| {
         let stem = input.file_stem().map_or("session".into(), |s| s.to_string_lossy().into_owned());
         PathBuf::from("sessions").join(format!("{stem}-replay.mcap"))
@@ -103,8 +129,11 @@ fn replay(args: &TrackArgs, model: &DekfModel, quiet: bool) -> Result<()> {
     }
     let live = super::live::start(&args.run.live)?;
     spec.live = live.as_ref().map(LiveServer::tap);
-    let setup = session.rig(ReplayOptions { camera: spec.camera, truth: true })?;
-    let tracked = track_on(args, model.clone(), setup, &spec, quiet);
+    let mut setup = session.rig(ReplayOptions { camera: spec.camera, truth: true })?;
+    if let Some(v) = &camera_vision {
+        setup.extra_metadata.extend(v.metadata.clone());
+    }
+    let tracked = track_on(args, model.clone(), setup, &spec, camera_vision, quiet);
     super::live::finish(live);
     tracked
 }
@@ -118,12 +147,15 @@ fn prepare_parent(path: &std::path::Path) -> Result<()> {
 }
 
 /// Runs the trial of `spec` on `setup` with the trackers live, and prints
-/// their errors against the simulator's truth.
+/// their errors against the simulator's truth. A vision tracker runs on the
+/// rig's RGB-D camera when `camera_vision` is given, else (with `--vision`)
+/// on the simulated in-hand scene.
 fn track_on(
     args: &TrackArgs,
     model: DekfModel,
     setup: RigSetup,
     spec: &TrialSpec,
+    camera_vision: Option<CameraVision>,
     quiet: bool,
 ) -> Result<()> {
     let (rig, object) = (spec.rig, spec.object);
@@ -135,8 +167,18 @@ fn track_on(
     let status = Arc::new(Mutex::new(LiveStatus::default()));
     let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
     let with_marker = setup.markers.is_some();
-    let vision = match args.vision {
-        Some(kind) => {
+    // Recorded frames are tracked to their end; a live camera until the trial ends.
+    let vision_end = if camera_vision.as_ref().is_some_and(|v| v.streams.is_none()) {
+        VisionEnd::WithItsFrames
+    } else {
+        VisionEnd::WithTheTrial
+    };
+    let (camera_vision, streams) = match camera_vision {
+        Some(CameraVision { tracking, camera, streams, .. }) => (Some((tracking, camera)), streams),
+        None => (None, None),
+    };
+    let vision = match (args.vision, &camera_vision) {
+        (Some(kind), None) => {
             let g = &rig.geometry;
             let config = InHandVisionConfig::new(kind.into(), spec.seed ^ u64::from(spec.trial));
             Some(
@@ -150,7 +192,7 @@ fn track_on(
                 .context("cannot set up the vision tracker")?,
             )
         }
-        None => None,
+        _ => None,
     };
     let record_rgbd = args.record_rgbd;
     let (s, d) = (status.clone(), display.clone());
@@ -160,6 +202,10 @@ fn track_on(
         let mut trackers = LiveTrackers::new(logger, tactile, &model, &model_name, marker, s, show)?;
         if let Some(v) = vision {
             trackers = trackers.with_vision(v.with_recording(logger.clone(), record_rgbd)?);
+        }
+        if let Some((tracking, camera)) = camera_vision {
+            let thread = tracking.recording_to(logger)?.spawn(camera);
+            trackers = trackers.with_camera_vision(thread, vision_end);
         }
         Ok(Box::new(trackers) as Box<_>)
     });
@@ -187,8 +233,31 @@ fn track_on(
             TrackerKind::from(kind).name()
         );
     }
+    if let (Some(summary), Some(kind)) = (&status.camera_vision, args.vision) {
+        print_camera_vision(TrackerKind::from(kind), summary, streams.as_ref());
+    }
     if let Some(reason) = &report.outcome.abort {
         bail!("the trial was aborted: {reason}; {} keeps what was recorded", report.path.display());
     }
     Ok(())
+}
+
+/// The summary lines of the vision tracker on the rig's camera; why it
+/// stopped, if it stopped before the trial, on stderr.
+fn print_camera_vision(kind: TrackerKind, s: &CameraVisionSummary, streams: Option<&StreamCounts>) {
+    println!(
+        "  vision ({}) on the [rgbd] camera: {} of {} frames tracked, {:.0} fps (tracker only); \
+         /rgbd/*, /estimate/*/{} recorded",
+        kind.name(),
+        s.tracked,
+        s.frames,
+        s.tracker_fps,
+        kind.name()
+    );
+    for line in streams.map(StreamCounts::lines).unwrap_or_default().iter().chain(&s.measurements) {
+        println!("    {line}");
+    }
+    if let Some(e) = &s.error {
+        eprintln!("warning: the vision tracker stopped before the trial ended: {e}");
+    }
 }

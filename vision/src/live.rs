@@ -1,7 +1,8 @@
 //! A tracker online on a live RGB-D camera: each frame goes to the
 //! measurement source (masks and poses), then to the tracker, and, with a
 //! recording, the frame (`/rgbd/*`) and the estimate (`/estimate/*/<tracker>`)
-//! go to the session. [`LiveTracking::on_sample`] is one frame;
+//! go to the session, with the masks and poses the tracker was given
+//! (`/vision/mask`, `/vision/pose`). [`LiveTracking::on_sample`] is one frame;
 //! [`LiveTracking::run`] the loop until the camera ends or a stop flag;
 //! [`LiveTracking::spawn`] the loop on its own thread, beside a tactile
 //! trial that records into the same session.
@@ -138,6 +139,14 @@ impl LiveTracking {
         if let Some(r) = &self.recording {
             let jpeg = encode_color_jpeg(&sample.frame.color, JPEG_QUALITY)?;
             r.rgbd.log_frame(&r.logger, &sample.frame, &jpeg, sample.truth.as_ref(), None)?;
+            // What the tracker was given, so that a replay of the session
+            // (`--measurements input`) gives it the same.
+            for m in &arrivals.masks {
+                r.rgbd.log_vision_mask(&r.logger, m.frame_t, m.arrival_t, &m.value)?;
+            }
+            for p in &arrivals.poses {
+                r.rgbd.log_vision_pose(&r.logger, p.frame_t, p.arrival_t, &p.value)?;
+            }
             if let Some(s) = &state {
                 r.estimates.log(&r.logger, s)?;
             }
@@ -202,11 +211,18 @@ impl LiveThread {
     /// Stops the loop after its current frame and waits for it; fails when
     /// the thread could not start or panicked (the error says which).
     pub fn stop(mut self) -> Result<LiveOutcome, VisionError> {
-        self.join()
+        self.join(true)
     }
 
-    fn join(&mut self) -> Result<LiveOutcome, VisionError> {
-        self.stop.store(true, Ordering::SeqCst);
+    /// Waits for the loop to reach the end of its frames (a recording).
+    pub fn wait_for_end(mut self) -> Result<LiveOutcome, VisionError> {
+        self.join(false)
+    }
+
+    fn join(&mut self, stop: bool) -> Result<LiveOutcome, VisionError> {
+        if stop {
+            self.stop.store(true, Ordering::SeqCst);
+        }
         let lost = |detail: String| VisionError::BadValue { what: "live vision thread", detail };
         match self.handle.take() {
             Some(Ok(handle)) => handle.join().map_err(|_| lost("it panicked".into())),
@@ -219,7 +235,7 @@ impl LiveThread {
 impl Drop for LiveThread {
     fn drop(&mut self) {
         if self.handle.is_some() {
-            let _ = self.join();
+            let _ = self.join(true);
         }
     }
 }

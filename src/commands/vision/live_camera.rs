@@ -31,6 +31,21 @@ impl LiveCamera {
     pub fn counts(&self) -> Vec<String> {
         self.reports.iter().map(|r| r()).collect()
     }
+
+    /// The pair, to hand to another thread, and the streams' counts.
+    pub fn split(self) -> (CameraPair, StreamCounts) {
+        (self.pair, StreamCounts(self.reports))
+    }
+}
+
+/// What each stream of a [`LiveCamera`] counted, live.
+pub struct StreamCounts(Vec<CountReport>);
+
+impl StreamCounts {
+    /// One line per stream: what it delivered and dropped.
+    pub fn lines(&self) -> Vec<String> {
+        self.0.iter().map(|r| r()).collect()
+    }
 }
 
 /// A path of the rig TOML, relative to its directory.

@@ -1,10 +1,11 @@
 //! `slidetrack vision`: the vision trackers MaskUKF and ROFT (thesis
 //! Chapters 4 and 5) on simulated, recorded and dataset RGB-D input.
 
+pub(crate) mod camera_vision;
 mod eval;
 mod inputs;
 mod live;
-mod live_camera;
+pub(crate) mod live_camera;
 mod simulate;
 mod track;
 

@@ -1,0 +1,140 @@
+//! `slidetrack track --rig hw --vision maskukf|roft`: a vision tracker on
+//! the rig's `[rgbd]` camera beside the tactile trial, fed by the sources
+//! that need no network (`--vision-measurements aruco|external`), started
+//! from its first pose measurement. The camera runs on the trial's clock, so
+//! its frames and estimates share the session's time line. On `--rig
+//! replay` of such a session, the same tracker runs on its recorded frames
+//! with the masks and poses recorded beside them.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
+use slidetrack_core::Clock;
+use slidetrack_drivers::rgbd_config::RgbdCameraConfig;
+use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_session::{ChannelMessage, ReadOptions, RgbdColor, SessionInfo};
+use slidetrack_vision::input::{RgbdSource, SessionRgbd};
+use slidetrack_vision::live::LiveTracking;
+use slidetrack_vision::sources::SessionMeasurements;
+use slidetrack_vision::{TrackerKind, TrackerSettings};
+
+use super::inputs::{InputOptions, load_model, own_measurements};
+use super::live_camera::{self, StreamCounts};
+use super::track::external_config;
+use crate::cli::{CameraMeasurementsArg, InitArg, MeasurementsArg, TrackArgs};
+
+/// The vision tracker of a hardware trial and its camera, ready to run.
+pub struct CameraVision {
+    /// The tracker with its measurement source.
+    pub tracking: LiveTracking,
+    /// The camera's colour and depth, paired and registered, or the
+    /// recorded frames of a replayed session.
+    pub camera: Box<dyn RgbdSource + Send>,
+    /// What each stream of a live camera counted.
+    pub streams: Option<StreamCounts>,
+    /// Keys for the session's metadata: the tracker, its model, its inputs.
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// The camera table and the model `--vision` on a hardware rig needs,
+/// checked before the rig's devices are opened.
+pub fn requirements<'a>(
+    args: &'a TrackArgs,
+    rig: &'a RigConfig,
+    rig_path: &Path,
+) -> Result<(&'a RgbdCameraConfig, &'a str)> {
+    let cfg = rig.rgbd.as_ref().with_context(|| {
+        format!(
+            "{}: --vision on a hardware rig tracks its RGB-D camera, and there is no [rgbd] table \
+             (docs/examples/rgbd-rig.toml shows one)",
+            rig_path.display()
+        )
+    })?;
+    let model_spec = args.vision_model.as_deref().context(
+        "--vision on a hardware rig needs --vision-model (the object's mesh or point cloud, in metres)",
+    )?;
+    if args.vision_measurements == CameraMeasurementsArg::Aruco && args.aruco_config.is_none() {
+        anyhow::bail!(
+            "--vision-measurements aruco (the default) needs --aruco-config FILE, the marker on the object"
+        );
+    }
+    Ok((cfg, model_spec))
+}
+
+/// Opens the `[rgbd]` camera of `rig` (read from `rig_path`) on `clock` and
+/// sets up the `--vision` tracker of `args` on it.
+pub fn open(
+    args: &TrackArgs,
+    kind: TrackerKind,
+    rig: &RigConfig,
+    rig_path: &Path,
+    clock: Arc<dyn Clock>,
+) -> Result<CameraVision> {
+    let (cfg, model_spec) = requirements(args, rig, rig_path)?;
+    let rig_dir = rig_path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let camera = live_camera::open(cfg, rig_dir, clock)?;
+    let replayed = camera.replay.clone();
+    let session = replayed.as_ref().map(|(p, _)| (p.as_path(), ReadOptions::default()));
+    let model = load_model(model_spec, args.vision_model_scale, session)
+        .with_context(|| format!("--vision-model {model_spec}"))?;
+    let measurements = match args.vision_measurements {
+        CameraMeasurementsArg::Aruco => MeasurementsArg::Aruco,
+        CameraMeasurementsArg::External => MeasurementsArg::External,
+    };
+    let options = InputOptions {
+        model: model_spec,
+        model_scale: args.vision_model_scale,
+        object: None,
+        measurements,
+        init: InitArg::Measurement,
+        recover: false,
+        aruco_config: args.aruco_config.as_deref(),
+        external: Some(external_config(&args.external)),
+    };
+    let intrinsics = camera.pair.intrinsics().clone();
+    let source = own_measurements(&options, &model, &intrinsics)?;
+    let mut metadata = BTreeMap::from([
+        ("vision_tracker".to_string(), kind.name().to_string()),
+        ("vision_model".to_string(), model.origin.clone()),
+        ("vision_measurements".to_string(), format!("{measurements:?}").to_lowercase()),
+    ]);
+    if let Some((path, offset_ns)) = &replayed {
+        metadata.insert("rgbd_replay".into(), path.display().to_string());
+        // Session time minus recording time of the replayed recording (ns).
+        metadata.insert("rgbd_replay_offset_ns".into(), offset_ns.to_string());
+    }
+    let tracking = LiveTracking::new(kind, model, intrinsics, &TrackerSettings::default(), source)?;
+    let (camera, streams) = camera.split();
+    Ok(CameraVision { tracking, camera: Box::new(camera), streams: Some(streams), metadata })
+}
+
+/// True when `session` recorded RGB-D frames (`/rgbd/color`).
+pub fn has_frames(session: &Path) -> Result<bool> {
+    let info = SessionInfo::read(session, ReadOptions::default())?;
+    Ok(info.channel(RgbdColor::TOPIC).is_some_and(|c| c.message_count > 0))
+}
+
+/// The `--vision` tracker of `args` on the recorded frames of `session`,
+/// fed by its recorded masks and poses (`/vision/mask`, `/vision/pose`);
+/// the model is `--vision-model` or the one the session names.
+pub fn open_recorded(args: &TrackArgs, kind: TrackerKind, session: &Path) -> Result<CameraVision> {
+    let info = SessionInfo::read(session, ReadOptions::default())?;
+    let recorded = info.metadata.get("slidetrack").and_then(|m| m.get("vision_model")).cloned();
+    let model_spec = args.vision_model.clone().or(recorded).with_context(|| {
+        format!("{}: the session names no vision model; give --vision-model", session.display())
+    })?;
+    let model = load_model(&model_spec, args.vision_model_scale, Some((session, ReadOptions::default())))
+        .with_context(|| format!("vision model {model_spec}"))?;
+    let frames = SessionRgbd::open(session, ReadOptions::default())?;
+    let measurements = Box::new(SessionMeasurements::open(session, ReadOptions::default())?);
+    let intrinsics = frames.intrinsics().clone();
+    let metadata = BTreeMap::from([
+        ("vision_tracker".to_string(), kind.name().to_string()),
+        ("vision_model".to_string(), model.origin.clone()),
+        ("vision_measurements".to_string(), "input".to_string()),
+    ]);
+    let tracking = LiveTracking::new(kind, model, intrinsics, &TrackerSettings::default(), measurements)?;
+    Ok(CameraVision { tracking, camera: Box::new(frames), streams: None, metadata })
+}
