@@ -46,7 +46,7 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
     prepare_out_dir(&args.out)?;
     // Before any device moves: an address that cannot serve stops here.
     let live = super::live::start(&args.run.live)?;
-    let stop = super::stop_flag();
+    let stop = super::stop_flag(super::RELEASING);
 
     let per_trial_ms = ((args.run.duration + SETUP_S) * 1e3) as u64;
     let bar =

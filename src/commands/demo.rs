@@ -24,7 +24,7 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     }
     let started = Instant::now();
     let workers = threads(args.threads);
-    let stop = super::stop_flag();
+    let stop = super::stop_flag(super::RELEASING);
     let sessions = args.out.join("sessions");
     let n = args.train + args.test;
     println!(

@@ -88,7 +88,7 @@ fn tactile(kind: EmulatedTactile, a: &EmulateTactileArgs) -> Result<()> {
 /// Prints `endpoint` alone on stdout (for scripts), `hint` on stderr, and
 /// waits for Ctrl-C.
 fn serve(endpoint: &str, hint: &str) -> Result<()> {
-    let stop = stop_flag();
+    let stop = stop_flag("closing the emulated devices");
     let mut out = std::io::stdout().lock();
     writeln!(out, "{endpoint}").and_then(|()| out.flush()).context("cannot write to stdout")?;
     drop(out);

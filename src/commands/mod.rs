@@ -79,9 +79,14 @@ pub fn without_devices(what: &str) -> anyhow::Error {
     )
 }
 
+/// What a trial does when stopped: `stop_flag`'s message for commands that drive the hand.
+pub const RELEASING: &str = "releasing the hand and closing the session";
+
 /// A flag that turns true on Ctrl-C (SIGINT) or SIGTERM, so that a running
-/// trial releases the hand and finishes its session file before exiting.
-pub fn stop_flag() -> Arc<AtomicBool> {
+/// command ends cleanly (a trial releases the hand and finishes its session
+/// file) before exiting; `stopping` says what it does then (one command per
+/// process: the first caller's words stand).
+pub fn stop_flag(stopping: &'static str) -> Arc<AtomicBool> {
     static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
     FLAG.get_or_init(|| {
         let flag = Arc::new(AtomicBool::new(false));
@@ -91,9 +96,7 @@ pub fn stop_flag() -> Arc<AtomicBool> {
                 // Second Ctrl-C: the user insists.
                 std::process::exit(130);
             }
-            eprintln!(
-                "\nstopping: releasing the hand and closing the session (Ctrl-C again to quit at once)"
-            );
+            eprintln!("\nstopping: {stopping} (Ctrl-C again to quit at once)");
         }) {
             tracing::warn!("cannot install the Ctrl-C handler: {e}");
         }

@@ -17,7 +17,7 @@ pub fn run(args: &PlayArgs) -> Result<()> {
         looping: args.looping,
         wait_for_viewer: !args.no_wait,
     };
-    let stop = super::stop_flag();
+    let stop = super::stop_flag("ending the playback");
     let file = args.file.display().to_string();
     let wait = !args.no_wait;
     let report = play(&args.file, &options, &stop, &mut |addr| {

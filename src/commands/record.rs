@@ -40,7 +40,7 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         path: args.out.clone(),
         live: None,
     };
-    let stop = super::stop_flag();
+    let stop = super::stop_flag("closing the session (the hand is left as it is)");
     let bar = match (quiet, args.duration) {
         (true, _) => ProgressBar::hidden(),
         (false, Some(d)) => ProgressBar::new((d * 1e3) as u64),

@@ -48,7 +48,7 @@ fn spec(args: &StudyArgs) -> Result<(StudySpec, String)> {
 
 pub fn run(args: &StudyArgs, _quiet: bool) -> Result<()> {
     let (s, schedule) = spec(args)?;
-    let stop = super::stop_flag();
+    let stop = super::stop_flag(super::RELEASING);
     let sets = data(&s, &stop)?;
     let specs = models();
     eprintln!("training {} models, {} at a time", specs.len(), s.threads);

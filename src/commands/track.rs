@@ -209,7 +209,7 @@ fn track_on(
         }
         Ok(Box::new(trackers) as Box<_>)
     });
-    let stop = super::stop_flag();
+    let stop = super::stop_flag(super::RELEASING);
     let mut progress = |_t: slidetrack_core::TimeNs| {};
     let report = record_trial_with(setup, spec, &stop, &mut progress, Some(extension))?;
     display.finish_and_clear();

@@ -54,7 +54,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     if !quiet {
         eprintln!("tracking live on the [rgbd] camera of {} (Ctrl-C stops)", rig_path.display());
     }
-    let stop = crate::commands::stop_flag();
+    let stop = crate::commands::stop_flag("closing the session");
     let started = Instant::now();
     let until = args.duration.map(|d| started + Duration::from_secs_f64(d));
     let mut next = |camera: &mut LiveCamera| -> Result<Option<RgbdSample>> {
