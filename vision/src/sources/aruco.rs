@@ -3,6 +3,7 @@
 
 use std::collections::VecDeque;
 use std::path::Path;
+use std::sync::mpsc;
 use std::time::Instant;
 
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
@@ -93,6 +94,12 @@ pub struct ArucoConfig {
     /// Detections whose corners reproject worse than this (px, RMS) are dropped.
     #[serde(default = "two")]
     pub max_reprojection_error_px: f64,
+    /// Detect on a thread of its own, one frame at a time, as a network
+    /// would run beside the tracker: frames that come while it is busy are
+    /// not searched (and counted). Off: detection runs in the caller's
+    /// loop, on every `every_nth_frame`-th frame (repeatable).
+    #[serde(default)]
+    pub background: bool,
 }
 
 fn one() -> u32 {
@@ -120,6 +127,16 @@ impl ArucoConfig {
 /// A frame's `camera_from_object` and, when masks are rendered, its mask.
 type Measured = (Isometry3<f64>, Option<Mask>);
 
+/// What the search of one frame found.
+enum Outcome {
+    /// The marker, and the object's pose and mask from it.
+    Found(Measured),
+    /// No marker with the configured id.
+    NoMarker,
+    /// The marker, with a reprojection error above the limit.
+    Rejected,
+}
+
 /// What the source did so far.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ArucoStats {
@@ -131,6 +148,8 @@ pub struct ArucoStats {
     pub frames_without_marker: usize,
     /// Detections dropped for their reprojection error.
     pub rejected: usize,
+    /// Frames not searched because the background detection was busy.
+    pub skipped_busy: usize,
 }
 
 /// Poses `camera_from_object = camera_from_marker * marker_from_object` from
@@ -139,19 +158,87 @@ pub struct ArucoStats {
 ///
 /// Detection runs in the caller's thread on each `every_nth_frame`-th frame
 /// (detection and mask rendering: about 17 ms a frame at 640x480 on this
-/// project's 2-core machine under load). Each result refers
-/// to its frame and arrives, with [`ArrivalDelay::Measured`], that much
-/// later: it is handed over by the first frame at or after its arrival.
-/// Frames without the marker produce nothing ([`ArucoStats`] counts them).
+/// project's 2-core machine under load), or with `background` on a thread
+/// of its own. Each result refers to its frame and arrives, with
+/// [`ArrivalDelay::Measured`], its compute time later: it is handed over by
+/// the first frame at or after its arrival. Frames without the marker
+/// produce nothing ([`ArucoStats`] counts them).
 pub struct ArucoSource {
     config: ArucoConfig,
-    detector: MarkerDetector,
-    marker_from_object: Isometry3<f64>,
-    intrinsics: CameraIntrinsics,
-    masks: Option<MaskRenderer>,
+    runner: Runner,
     pending: VecDeque<(Delayed<Isometry3<f64>>, Option<Mask>)>,
     frame_index: u64,
     stats: ArucoStats,
+}
+
+/// Where the search runs.
+enum Runner {
+    Inline(Box<Measurer>),
+    Background(Worker),
+}
+
+/// The search of one frame: detection, marker pose, object pose, mask.
+struct Measurer {
+    detector: MarkerDetector,
+    marker_id: u32,
+    marker_size_m: f64,
+    max_reprojection_error_px: f64,
+    marker_from_object: Isometry3<f64>,
+    intrinsics: CameraIntrinsics,
+    masks: Option<MaskRenderer>,
+}
+
+/// A search result: the frame's time, what it found, its compute time (ns).
+type Searched = (TimeNs, Result<Outcome, VisionError>, u64);
+
+/// A [`Measurer`] on its own thread, one frame at a time.
+struct Worker {
+    frames: mpsc::Sender<RgbdFrame>,
+    results: mpsc::Receiver<Searched>,
+    busy: bool,
+}
+
+impl Worker {
+    fn spawn(mut measurer: Measurer) -> Result<Worker, VisionError> {
+        let (frames, frames_rx) = mpsc::channel::<RgbdFrame>();
+        let (results_tx, results) = mpsc::channel();
+        std::thread::Builder::new()
+            .name("aruco".into())
+            .spawn(move || {
+                for frame in frames_rx {
+                    let started = Instant::now();
+                    let outcome = measurer.measure(&frame);
+                    let compute_ns = started.elapsed().as_nanos() as u64;
+                    if results_tx.send((frame.t, outcome, compute_ns)).is_err() {
+                        break;
+                    }
+                }
+            })
+            .map_err(|e| VisionError::BadValue { what: "ArUco detection thread", detail: e.to_string() })?;
+        Ok(Worker { frames, results, busy: false })
+    }
+
+    fn gone() -> VisionError {
+        VisionError::BadValue { what: "ArUco detection thread", detail: "it ended unexpectedly".into() }
+    }
+
+    /// The finished search, if any.
+    fn finished(&mut self) -> Result<Option<Searched>, VisionError> {
+        match self.results.try_recv() {
+            Ok(r) => {
+                self.busy = false;
+                Ok(Some(r))
+            }
+            Err(mpsc::TryRecvError::Empty) => Ok(None),
+            Err(mpsc::TryRecvError::Disconnected) => Err(Self::gone()),
+        }
+    }
+
+    fn start(&mut self, frame: &RgbdFrame) -> Result<(), VisionError> {
+        self.frames.send(frame.clone()).map_err(|_| Self::gone())?;
+        self.busy = true;
+        Ok(())
+    }
 }
 
 impl ArucoSource {
@@ -200,12 +287,23 @@ impl ArucoSource {
             }
             (_, false) => None,
         };
-        Ok(ArucoSource {
-            marker_from_object: config.marker_from_object.isometry("marker_from_object")?,
+        let measurer = Measurer {
             detector: MarkerDetector::new(dictionary)?,
+            marker_id: config.marker_id,
+            marker_size_m: config.marker_size_m,
+            max_reprojection_error_px: config.max_reprojection_error_px,
+            marker_from_object: config.marker_from_object.isometry("marker_from_object")?,
             intrinsics: intrinsics.clone(),
-            config,
             masks,
+        };
+        let runner = if config.background {
+            Runner::Background(Worker::spawn(measurer)?)
+        } else {
+            Runner::Inline(Box::new(measurer))
+        };
+        Ok(ArucoSource {
+            config,
+            runner,
             pending: VecDeque::new(),
             frame_index: 0,
             stats: ArucoStats::default(),
@@ -217,21 +315,39 @@ impl ArucoSource {
         self.stats
     }
 
+    /// Counts a search of the frame at `frame_t` and queues what it found.
+    fn accept(&mut self, (frame_t, outcome, compute_ns): Searched) -> Result<(), VisionError> {
+        match outcome? {
+            Outcome::Found((pose, mask)) => {
+                let delay_ns = match self.config.delay {
+                    ArrivalDelay::Measured => compute_ns,
+                    ArrivalDelay::None => 0,
+                };
+                self.stats.poses += 1;
+                let arrival_t = TimeNs(frame_t.0 + delay_ns);
+                self.pending.push_back((Delayed { frame_t, arrival_t, value: pose }, mask));
+            }
+            Outcome::NoMarker => self.stats.frames_without_marker += 1,
+            Outcome::Rejected => self.stats.rejected += 1,
+        }
+        Ok(())
+    }
+}
+
+impl Measurer {
     /// Detects the marker in `frame`: the object's pose and mask, if seen.
-    fn measure(&mut self, frame: &RgbdFrame) -> Result<Option<Measured>, VisionError> {
+    fn measure(&mut self, frame: &RgbdFrame) -> Result<Outcome, VisionError> {
         let detections = self.detector.detect(&frame.color)?;
-        let Some(detection) = detections.iter().find(|d| d.id == self.config.marker_id) else {
-            self.stats.frames_without_marker += 1;
-            return Ok(None);
+        let Some(detection) = detections.iter().find(|d| d.id == self.marker_id) else {
+            return Ok(Outcome::NoMarker);
         };
-        let pose = marker_pose(detection, &self.intrinsics, self.config.marker_size_m)?;
-        if pose.reprojection_error_px > self.config.max_reprojection_error_px {
-            self.stats.rejected += 1;
-            return Ok(None);
+        let pose = marker_pose(detection, &self.intrinsics, self.marker_size_m)?;
+        if pose.reprojection_error_px > self.max_reprojection_error_px {
+            return Ok(Outcome::Rejected);
         }
         let camera_from_object = pose.camera_from_marker * self.marker_from_object;
         let mask = self.masks.as_mut().map(|r| r.render(&camera_from_object, Some(&frame.depth)));
-        Ok(Some((camera_from_object, mask)))
+        Ok(Outcome::Found((camera_from_object, mask)))
     }
 }
 
@@ -253,17 +369,27 @@ impl MeasurementSource for ArucoSource {
     ) -> Result<Arrivals, VisionError> {
         let index = self.frame_index;
         self.frame_index += 1;
-        if index.is_multiple_of(u64::from(self.config.every_nth_frame)) {
-            self.stats.frames_searched += 1;
-            let started = Instant::now();
-            if let Some((pose, mask)) = self.measure(frame)? {
-                let compute_ns = match self.config.delay {
-                    ArrivalDelay::Measured => started.elapsed().as_nanos() as u64,
-                    ArrivalDelay::None => 0,
-                };
-                self.stats.poses += 1;
-                let arrival_t = TimeNs(frame.t.0 + compute_ns);
-                self.pending.push_back((Delayed { frame_t: frame.t, arrival_t, value: pose }, mask));
+        let due = index.is_multiple_of(u64::from(self.config.every_nth_frame));
+        match &mut self.runner {
+            Runner::Inline(measurer) => {
+                if due {
+                    self.stats.frames_searched += 1;
+                    let started = Instant::now();
+                    let outcome = measurer.measure(frame);
+                    self.accept((frame.t, outcome, started.elapsed().as_nanos() as u64))?;
+                }
+            }
+            Runner::Background(worker) => {
+                let finished = worker.finished()?;
+                if due && worker.busy {
+                    self.stats.skipped_busy += 1;
+                } else if due {
+                    worker.start(frame)?;
+                    self.stats.frames_searched += 1;
+                }
+                if let Some(result) = finished {
+                    self.accept(result)?;
+                }
             }
         }
         let mut out = Arrivals::default();
@@ -279,8 +405,12 @@ impl MeasurementSource for ArucoSource {
 
     fn summary(&self) -> Option<String> {
         let s = self.stats;
+        let busy = match self.runner {
+            Runner::Background(_) => format!(", {} skipped while detection was busy", s.skipped_busy),
+            Runner::Inline(_) => String::new(),
+        };
         Some(format!(
-            "aruco: {} frames searched, {} poses, {} without the marker, {} rejected for reprojection error",
+            "aruco: {} frames searched, {} poses, {} without the marker, {} rejected for reprojection error{busy}",
             s.frames_searched, s.poses, s.frames_without_marker, s.rejected
         ))
     }

@@ -40,6 +40,7 @@ fn config(object_from_marker: &Isometry3<f64>) -> ArucoConfig {
         masks: true,
         mask_depth_tolerance_m: Some(0.03),
         max_reprojection_error_px: 2.0,
+        background: false,
     }
 }
 
@@ -118,6 +119,45 @@ fn frames_without_the_marker_give_nothing_and_results_wait_for_their_arrival() {
     assert_eq!((stats.frames_searched, stats.poses, stats.frames_without_marker), (2, 1, 1));
     // on_frame without the images is an error, not a silent nothing.
     assert!(source.on_frame(TimeNs(5), None).is_err());
+}
+
+/// In the background, a frame is searched only when the detection thread
+/// is free: frames fed faster than it searches are skipped and counted, and
+/// every result comes back with its frame's time, after its compute time,
+/// with the pose the inline search finds.
+#[test]
+fn background_detection_skips_frames_while_busy_and_hands_results_over_later() {
+    let s = scene();
+    let intrinsics = s.scene.config().intrinsics.clone();
+    let mut c = config(&s.object_from_marker);
+    c.delay = ArrivalDelay::Measured;
+    c.background = true;
+    let mut source = ArucoSource::new(c, &model(), &intrinsics).unwrap();
+    let frames: Vec<RgbdFrame> = (0..6).map(|k| frame(&s, k)).collect();
+    let mut poses = Vec::new();
+    // Fed at once, the six frames come faster than one search.
+    for f in &frames {
+        poses.extend(source.on_rgbd_frame(f, None).unwrap().poses);
+    }
+    let fed = source.stats();
+    assert_eq!(fed.frames_searched + fed.skipped_busy, 6, "{fed:?}");
+    assert!(fed.skipped_busy >= 1, "{fed:?}");
+    // Frames 20 ms apart (real time) collect what was being searched, and
+    // start the next search: one search is always in flight.
+    for k in 6..20 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        poses.extend(source.on_rgbd_frame(&frame_every(&s, k, 1_000_000_000), None).unwrap().poses);
+    }
+    let stats = source.stats();
+    assert_eq!(poses.len(), stats.frames_searched - 1, "{stats:?}");
+    assert!(poses.len() >= 5, "{stats:?}");
+    for p in &poses {
+        assert!(frames.iter().any(|f| f.t == p.frame_t) || p.frame_t.0 % 1_000_000_000 == 0);
+        assert!(p.arrival_t > p.frame_t, "{:?} {:?}", p.frame_t, p.arrival_t);
+        let dp_mm = position_error_m(&p.value, &s.camera_from_object) * 1000.0;
+        assert!(dp_mm < 5.0, "{dp_mm} mm");
+    }
+    assert!(source.summary().unwrap().contains("skipped while detection was busy"));
 }
 
 #[test]
