@@ -77,6 +77,9 @@ fn bad_replay_requests_fail_with_one_line() {
     let missing = dir.path().join("missing.mcap");
     let e = fails(&["track", "--rig", "replay", "--model", m, "--session", missing.to_str().unwrap()]);
     assert!(e.contains("missing.mcap"), "{e}");
+    // A session recorded without the camera has no frames to track or render at.
+    let e = fails(&["track", "--rig", "replay", "--model", m, "--session", s, "--vision", "roft"]);
+    assert!(e.contains("renders the in-hand scene") && e.contains(s), "{e}");
     let e = fails(&["collect", "--rig", "replay", "--out", dir.path().to_str().unwrap()]);
     assert!(e.contains("track --rig replay"), "{e}");
 }

@@ -29,7 +29,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     if !(args.run.duration.is_finite() && args.run.duration > 0.0) {
         bail!("--duration must be a positive number of seconds, got {}", args.run.duration);
     }
-    if args.vision.is_some() && args.run.rig != RigArg::Hw && args.run.no_camera {
+    if args.vision.is_some() && args.run.rig == RigArg::Sim && args.run.no_camera {
         bail!(
             "--vision on the simulated rig tracks its rendered in-hand RGB-D scene: drop --no-camera \
              (on a hardware rig it tracks the [rgbd] camera of --config)"
@@ -124,6 +124,13 @@ fn replay(args: &TrackArgs, model: &DekfModel, quiet: bool) -> Result<()> {
     prepare_parent(&path)?;
     let mut spec = session.trial_spec(path, args.run.overwrite);
     spec.camera &= !args.run.no_camera;
+    if args.vision.is_some() && camera_vision.is_none() && !spec.camera {
+        bail!(
+            "{}: --vision renders the in-hand scene at each replayed camera frame, and this replay has \
+             none (--no-camera, or a session recorded without the camera)",
+            input.display()
+        );
+    }
     if spec.path.exists() && !spec.overwrite {
         bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
     }
