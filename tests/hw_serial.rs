@@ -6,29 +6,20 @@ mod common;
 
 use std::path::Path;
 
-use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, assert_ended_by_disconnect, fails, ok, slidetrack, tempdir};
+use common::{
+    SERIAL_EMULATED, SHORT_PROTOCOL, SIM_PATCH_4X4, assert_ended_by_disconnect, fails, ok, slidetrack,
+    tempdir,
+};
 use slidetrack_session::{
     ReadOptions, SessionInfo, TactileDecoder, TactileRaw, TactileZeroed, TaxelLayout, read_channel,
 };
 
-/// A 4x4 patch per fingertip on the simulated rig, read through the
-/// emulator as three uSkin-style modules of 16 taxels (the default sensors).
-const SERIAL_EMULATED: &str = "
-[hw]
-name = \"emulated-serial\"
-[hw.tactile]
-kind = \"serial\"
-port = \"emulated\"
-fingers = { thumb = { sensor = \"thumb\" }, index = { sensor = \"index\" }, middle = { sensor = \"middle\" } }
-[hw.hand]
-kind = \"sim\"
-[hw.camera]
-kind = \"sim\"
-";
-
 fn write_rig(dir: &Path, extra: &str) -> String {
     let path = dir.join("rig.toml");
-    std::fs::write(&path, format!("{SHORT_PROTOCOL}{SIM_PATCH_4X4}{SERIAL_EMULATED}{extra}"))
+    // A 4x4 patch per fingertip read as three 16-taxel modules, and the
+    // simulated camera.
+    let camera = "[hw.camera]\nkind = \"sim\"\n";
+    std::fs::write(&path, format!("{SHORT_PROTOCOL}{SIM_PATCH_4X4}{SERIAL_EMULATED}{camera}{extra}"))
         .expect("rig.toml written");
     path.to_str().expect("a UTF-8 path").to_string()
 }

@@ -13,25 +13,16 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, fails, ok, tempdir, trained};
+use common::{SERIAL_EMULATED, SHORT_PROTOCOL, SIM_PATCH_4X4, fails, ok, tempdir, trained};
 use nalgebra::Isometry3;
 use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
 use slidetrack_session::{
     ObjectTruth, PoseInFrame, ReadOptions, SessionInfo, TactileRaw, read_channel, read_json,
 };
 
-/// Three uSkin-style modules read through the serial emulator, the
-/// simulated hand, and the `[rgbd]` camera replaying `marker.mcap` frame by
-/// frame.
-const RIG: &str = "
-[hw]
-name = \"emulated-serial-with-rgbd\"
-[hw.tactile]
-kind = \"serial\"
-port = \"emulated\"
-fingers = { thumb = { sensor = \"thumb\" }, index = { sensor = \"index\" }, middle = { sensor = \"middle\" } }
-[hw.hand]
-kind = \"sim\"
+/// The camera tables of the emulated serial rig: no marker camera, and
+/// the `[rgbd]` camera replaying `marker.mcap` frame by frame.
+const CAMERAS: &str = "
 [hw.camera]
 kind = \"none\"
 [rgbd]
@@ -82,8 +73,8 @@ fn second_half_errors(
 /// the marker: one line each, before any device is opened.
 fn bad_arguments_fail_before_any_device_opens(dir: &Path, model: &str, trial: &[&str], vision: &[&str]) {
     let no_rgbd = dir.join("no-rgbd.toml");
-    let text = RIG.split("[rgbd]").next().unwrap();
-    std::fs::write(&no_rgbd, format!("{SHORT_PROTOCOL}{SIM_PATCH_4X4}{text}")).unwrap();
+    let cameras = CAMERAS.split("[rgbd]").next().unwrap();
+    std::fs::write(&no_rgbd, format!("{SHORT_PROTOCOL}{SIM_PATCH_4X4}{SERIAL_EMULATED}{cameras}")).unwrap();
     let without = ["-q", "track", "--rig", "hw", "--model", model, "--config", no_rgbd.to_str().unwrap()];
     let line = fails(&[&without[..], vision].concat());
     assert!(line.contains("no-rgbd.toml") && line.contains("no [rgbd] table"), "{line}");
@@ -102,7 +93,7 @@ fn a_hardware_trial_tracks_the_rgbd_camera_beside_the_dekf_and_its_replay_tracks
     let with_marker = ["--max-angular-speed", "45", "--marker", "DICT_4X4_50:0", "--marker-size", "0.04"];
     ok(&[&simulate[..], &with_marker[..], &["--out", marker.to_str().unwrap()]].concat());
     let rig = dir.path().join("rig.toml");
-    std::fs::write(&rig, format!("{SHORT_PROTOCOL}{SIM_PATCH_4X4}{RIG}")).unwrap();
+    std::fs::write(&rig, format!("{SHORT_PROTOCOL}{SIM_PATCH_4X4}{SERIAL_EMULATED}{CAMERAS}")).unwrap();
     let out = dir.path().join("hw.mcap");
     let (m, r, o) = (model.to_str().unwrap(), rig.to_str().unwrap(), out.to_str().unwrap());
     let aruco = dir.path().join("marker.aruco.toml");

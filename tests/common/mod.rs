@@ -106,6 +106,21 @@ pitch_mm = 4.7
 contact_sigma_mm = 6.0
 ";
 
+/// A hardware rig (`[hw]`, named `emulated-serial`) whose fingertips are
+/// the simulated rig's patches read through the serial emulator on a
+/// pseudo-terminal as three uSkin-style modules (the default sensors), with
+/// the simulated hand; the camera tables are the caller's.
+pub const SERIAL_EMULATED: &str = "
+[hw]
+name = \"emulated-serial\"
+[hw.tactile]
+kind = \"serial\"
+port = \"emulated\"
+fingers = { thumb = { sensor = \"thumb\" }, index = { sensor = \"index\" }, middle = { sensor = \"middle\" } }
+[hw.hand]
+kind = \"sim\"
+";
+
 /// A `[protocol]` table with the phases before and after the cycles cut
 /// short, so that real-time trials on emulated devices take seconds.
 pub const SHORT_PROTOCOL: &str = "
