@@ -206,6 +206,11 @@ pub struct TrackArgs {
     /// The socket of `--vision-measurements external`.
     #[command(flatten)]
     pub external: super::ExternalArgs,
+    /// With `--vision maskukf` on a hardware rig: start again at a pose
+    /// measurement more than CM centimetres or DEG degrees from the estimate
+    /// (as `vision track --pose-reset`).
+    #[arg(long, value_name = "CM,DEG", value_parser = super::parse_pose_reset, requires = "vision")]
+    pub pose_reset: Option<slidetrack_vision::PoseReset>,
 }
 
 /// Masks and poses of a vision tracker on a real camera.

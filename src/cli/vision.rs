@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand, ValueEnum};
+use slidetrack_vision::PoseReset;
 
 /// Arguments of `vision`.
 #[derive(Debug, Args)]
@@ -157,6 +158,27 @@ pub struct VisionTrackArgs {
     /// of a recording).
     #[arg(long, requires = "live")]
     pub duration: Option<f64>,
+    /// MaskUKF: start again at a pose measurement more than CM centimetres
+    /// or DEG degrees from the estimate (for example `3,20`); for a live
+    /// camera whose skipped frames can lose the object's rotation. Off by
+    /// default: the thesis's MaskUKF uses masks only.
+    #[arg(long, value_name = "CM,DEG", value_parser = parse_pose_reset)]
+    pub pose_reset: Option<PoseReset>,
+}
+
+/// `--pose-reset CM,DEG`.
+pub fn parse_pose_reset(text: &str) -> Result<PoseReset, String> {
+    let numbers: Vec<f64> = text
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{text:?}: {e} (expected CM,DEG, for example 3,20)"))?;
+    match numbers[..] {
+        [cm, deg] if cm > 0.0 && deg > 0.0 && cm.is_finite() && deg.is_finite() => {
+            Ok(PoseReset { position_m: cm / 100.0, rotation_deg: deg })
+        }
+        _ => Err(format!("{text:?}: expected two positive numbers CM,DEG, for example 3,20")),
+    }
 }
 
 /// The socket of `--measurements external`.

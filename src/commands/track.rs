@@ -29,6 +29,12 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     if !(args.run.duration.is_finite() && args.run.duration > 0.0) {
         bail!("--duration must be a positive number of seconds, got {}", args.run.duration);
     }
+    if args.pose_reset.is_some() && args.run.rig == RigArg::Sim {
+        bail!(
+            "--pose-reset is for the vision tracker on a camera (--rig hw, or a replay of its frames); \
+             the simulated rig's in-hand tracker has no pose measurements to reset at"
+        );
+    }
     if args.vision.is_some() && args.run.rig == RigArg::Sim && args.run.no_camera {
         bail!(
             "--vision on the simulated rig tracks its rendered in-hand RGB-D scene: drop --no-camera \

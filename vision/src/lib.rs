@@ -34,6 +34,6 @@ pub mod sources;
 pub use error::VisionError;
 pub use model::ObjectModel;
 pub use online::{
-    MaskUkfTracker, OnlineTracker, RoftTracker, StepNote, TrackedState, TrackerKind, TrackerSettings,
-    build_tracker,
+    MaskUkfTracker, OnlineTracker, PoseReset, RoftTracker, StepNote, TrackedState, TrackerKind,
+    TrackerSettings, build_tracker,
 };

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use nalgebra::{Isometry3, Vector6};
 use slidetrack_core::{CameraIntrinsics, RgbdFrame, TimeNs};
 use slidetrack_estimators::maskukf::{CloudInput, MaskUkf, MaskUkfConfig, MeasurementUsed, ObjectPoints};
+use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
 use slidetrack_estimators::orientation::PoseVelocity;
 use slidetrack_estimators::roft::{Mask, PoseUse, Roft, RoftConfig, RoftInput};
 
@@ -47,6 +48,9 @@ pub enum StepNote {
         points: usize,
         /// Points rejected as outliers.
         outliers: usize,
+        /// It started again at a pose measurement this frame
+        /// ([`TrackerSettings::maskukf_pose_reset`]).
+        restarted: bool,
     },
     /// ROFT: flow vectors in the velocity update and the fate of a pose.
     Roft {
@@ -110,6 +114,29 @@ pub struct TrackerSettings {
     /// A known starting pose; without one the trackers start from the
     /// first pose measurement.
     pub initial_pose: Option<Isometry3<f64>>,
+    /// MaskUKF: start again at a pose measurement that disagrees with the
+    /// estimate by more than this. Off by default: the thesis's MaskUKF
+    /// uses masks only, and a symmetric object's estimate may legitimately
+    /// differ from a pose by a symmetry turn.
+    pub maskukf_pose_reset: Option<PoseReset>,
+}
+
+/// How far an estimate may be from a pose measurement before the tracker
+/// starts again at the measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseReset {
+    /// Distance between the object origins (m).
+    pub position_m: f64,
+    /// Angle between the orientations (degrees).
+    pub rotation_deg: f64,
+}
+
+impl PoseReset {
+    /// True when `estimate` and `measured` differ by more than this.
+    pub fn exceeded(&self, estimate: &Isometry3<f64>, measured: &Isometry3<f64>) -> bool {
+        position_error_m(estimate, measured) > self.position_m
+            || rotation_error_deg(estimate, measured) > self.rotation_deg
+    }
 }
 
 /// Builds a tracker of `kind` for `model` seen with `intrinsics`.
@@ -151,6 +178,7 @@ pub struct MaskUkfTracker {
     intrinsics: CameraIntrinsics,
     config: MaskUkfConfig,
     initial_pose: Option<Isometry3<f64>>,
+    pose_reset: Option<PoseReset>,
     filter: Option<MaskUkf>,
     mask: Option<Mask>,
     last_t: Option<TimeNs>,
@@ -168,6 +196,7 @@ impl MaskUkfTracker {
             intrinsics: intrinsics.clone(),
             config: settings.maskukf.clone(),
             initial_pose: settings.initial_pose,
+            pose_reset: settings.maskukf_pose_reset,
             filter: None,
             mask: None,
             last_t: None,
@@ -197,8 +226,13 @@ impl OnlineTracker for MaskUkfTracker {
         }
         let dt_s = self.last_t.map_or(1.0 / 30.0, |l| (frame.t.0 - l.0) as f64 * 1e-9);
         self.last_t = Some(frame.t);
-        if self.filter.is_none() {
-            let start = self.initial_pose.or_else(|| arrivals.latest_pose().map(|p| p.value));
+        let measured = arrivals.latest_pose().map(|p| p.value);
+        let restarted = match (&self.filter, self.pose_reset, measured) {
+            (Some(f), Some(reset), Some(m)) => reset.exceeded(&f.estimate().camera_from_object, &m),
+            _ => false,
+        };
+        if self.filter.is_none() || restarted {
+            let start = if restarted { measured } else { self.initial_pose.or(measured) };
             let Some(start) = start else {
                 return Ok(None);
             };
@@ -223,7 +257,12 @@ impl OnlineTracker for MaskUkfTracker {
             t: frame.t,
             estimate: filter.estimate(),
             flow_velocity: None,
-            note: StepNote::MaskUkf { used: report.used, points: report.points, outliers: report.outliers },
+            note: StepNote::MaskUkf {
+                used: report.used,
+                points: report.points,
+                outliers: report.outliers,
+                restarted,
+            },
         }))
     }
 

@@ -38,6 +38,14 @@ pub struct CameraVision {
     pub metadata: BTreeMap<String, String>,
 }
 
+/// `--pose-reset` is MaskUKF's.
+fn check_pose_reset(args: &TrackArgs) -> Result<()> {
+    if args.pose_reset.is_some() && args.vision != Some(crate::cli::VisionArg::Maskukf) {
+        anyhow::bail!("--pose-reset is MaskUKF's: ROFT corrects with every pose it is given");
+    }
+    Ok(())
+}
+
 /// The camera table and the model `--vision` on a hardware rig needs,
 /// checked before the rig's devices are opened.
 pub fn requirements<'a>(
@@ -55,6 +63,7 @@ pub fn requirements<'a>(
     let model_spec = args.vision_model.as_deref().context(
         "--vision on a hardware rig needs --vision-model (the object's mesh or point cloud, in metres)",
     )?;
+    check_pose_reset(args)?;
     if args.vision_measurements == CameraMeasurementsArg::Aruco && args.aruco_config.is_none() {
         anyhow::bail!(
             "--vision-measurements aruco (the default) needs --aruco-config FILE, the marker on the object"
@@ -105,7 +114,8 @@ pub fn open(
         // Session time minus recording time of the replayed recording (ns).
         metadata.insert("rgbd_replay_offset_ns".into(), offset_ns.to_string());
     }
-    let tracking = LiveTracking::new(kind, model, intrinsics, &TrackerSettings::default(), source)?;
+    let settings = TrackerSettings { maskukf_pose_reset: args.pose_reset, ..TrackerSettings::default() };
+    let tracking = LiveTracking::new(kind, model, intrinsics, &settings, source)?;
     let (camera, streams) = camera.split();
     Ok(CameraVision { tracking, camera: Box::new(camera), streams: Some(streams), metadata })
 }
@@ -120,6 +130,7 @@ pub fn has_frames(session: &Path) -> Result<bool> {
 /// fed by its recorded masks and poses (`/vision/mask`, `/vision/pose`);
 /// the model is `--vision-model` or the one the session names.
 pub fn open_recorded(args: &TrackArgs, kind: TrackerKind, session: &Path) -> Result<CameraVision> {
+    check_pose_reset(args)?;
     let info = SessionInfo::read(session, ReadOptions::default())?;
     let recorded = info.metadata.get("slidetrack").and_then(|m| m.get("vision_model")).cloned();
     let model_spec = args.vision_model.clone().or(recorded).with_context(|| {
@@ -135,6 +146,7 @@ pub fn open_recorded(args: &TrackArgs, kind: TrackerKind, session: &Path) -> Res
         ("vision_model".to_string(), model.origin.clone()),
         ("vision_measurements".to_string(), "input".to_string()),
     ]);
-    let tracking = LiveTracking::new(kind, model, intrinsics, &TrackerSettings::default(), measurements)?;
+    let settings = TrackerSettings { maskukf_pose_reset: args.pose_reset, ..TrackerSettings::default() };
+    let tracking = LiveTracking::new(kind, model, intrinsics, &settings, measurements)?;
     Ok(CameraVision { tracking, camera: Box::new(frames), streams: None, metadata })
 }

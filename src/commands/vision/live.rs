@@ -66,8 +66,11 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     };
     let mut tracking = None;
     if let Some(first) = next(&mut camera)? {
-        let settings =
-            TrackerSettings { initial_pose: initial_pose(args, &first)?, ..TrackerSettings::default() };
+        let settings = TrackerSettings {
+            initial_pose: initial_pose(args, &first)?,
+            maskukf_pose_reset: args.pose_reset,
+            ..TrackerSettings::default()
+        };
         let mut t = LiveTracking::new(args.tracker.kind(), model, intrinsics, &settings, measurements)?;
         if let Some(r) = &recorder {
             t = t.recording_to(&r.logger())?;

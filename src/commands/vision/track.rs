@@ -17,6 +17,7 @@ use super::inputs::{InputOptions, Prepared, prepare};
 use crate::cli::VisionTrackArgs as TrackArgs;
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
+    check_pose_reset(args)?;
     let Some(input) = &args.input else {
         return super::live::run(args, quiet);
     };
@@ -33,7 +34,8 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let Prepared { mut source, mut measurements, model, intrinsics, initial_pose } =
         prepare(input, &options)?;
     let kind = args.tracker.kind();
-    let settings = TrackerSettings { initial_pose, ..TrackerSettings::default() };
+    let settings =
+        TrackerSettings { initial_pose, maskukf_pose_reset: args.pose_reset, ..TrackerSettings::default() };
     let mut tracker = build_tracker(kind, &model, &intrinsics, &settings)?;
     let recorder = args.out.as_ref().map(|path| recorder(args, path, kind, &model.origin)).transpose()?;
     let channels = match &recorder {
@@ -98,6 +100,14 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
 }
 
 /// The external source's settings from the command line.
+/// `--pose-reset` is MaskUKF's.
+fn check_pose_reset(args: &TrackArgs) -> Result<()> {
+    if args.pose_reset.is_some() && args.tracker.kind() != TrackerKind::MaskUkf {
+        anyhow::bail!("--pose-reset is MaskUKF's: ROFT corrects with every pose it is given");
+    }
+    Ok(())
+}
+
 pub(super) fn external_config(args: &crate::cli::ExternalArgs) -> ExternalConfig {
     ExternalConfig {
         listen: args.listen.clone(),
