@@ -213,7 +213,7 @@ fn the_live_path_tracks_with_the_marker_derived_poses_and_masks() {
             "{tracker} live with ArUco poses, {frames} frames: tracked {tracked_cm:.2} cm, {tracked_deg:.1} deg; \
              frozen {frozen_cm:.2} cm, {frozen_deg:.1} deg"
         );
-        // Measured: ROFT 0.66 cm, 5.9 deg; MaskUKF 0.33 cm, 5.3 deg (frozen
+        // Measured: ROFT 0.52 cm, 1.8 deg; MaskUKF 0.33 cm, 5.4 deg (frozen
         // 9.0 cm, 23 deg). Before the replay handed over every frame, a
         // loaded CI machine processed 29 of the 90 and MaskUKF's rotation
         // stayed at 22 deg.

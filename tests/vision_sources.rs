@@ -53,9 +53,11 @@ fn metrics(stdout: &str) -> Value {
 fn roft_and_maskukf_follow_the_marker_from_a_perturbed_start() {
     let dir = tempdir();
     let (session, config) = marker_session(dir.path());
-    // Measured (delay = "none", so repeatable): ROFT 2.0 cm, 8.3 deg,
-    // ADD-AUC 83%; MaskUKF 1.2 cm, 5.0 deg, 92%.
-    for (tracker, rotation_rmse_deg) in [("roft", 12.0), ("maskukf", 10.0)] {
+    // Measured (delay = "none", so repeatable): ROFT 1.37 cm, 1.9 deg,
+    // ADD-AUC 92%; MaskUKF 1.09 cm, 5.0 deg, 93%. ROFT's bound catches the
+    // marker's wrong tilt (its pose chosen by reprojection error alone:
+    // 2.0 cm, 8.3 deg).
+    for (tracker, rotation_rmse_deg) in [("roft", 4.0), ("maskukf", 8.0)] {
         let out = run(&[
             "-q",
             "vision",

@@ -22,7 +22,7 @@ pub use aruco::{
 pub use axis::{SlidingAxis, SlidingProjector};
 pub use codec::encode_jpeg;
 pub use error::MarkerError;
-pub use pose::{MarkerPose, marker_pose};
+pub use pose::{MarkerPose, marker_pose, marker_pose_candidates};
 
 /// Makes OpenCV run its functions on the calling thread only (benchmarks on one core).
 pub fn use_one_thread() {

@@ -114,8 +114,8 @@ pub struct TrackerSettings {
     /// A known starting pose; without one the trackers start from the
     /// first pose measurement.
     pub initial_pose: Option<Isometry3<f64>>,
-    /// MaskUKF: start again at a pose measurement that disagrees with the
-    /// estimate by more than this. Off by default: the thesis's MaskUKF
+    /// MaskUKF: move the estimate to a pose measurement that disagrees with
+    /// it by more than this (at rest, keeping the covariance). Off by default: the thesis's MaskUKF
     /// uses masks only, and a symmetric object's estimate may legitimately
     /// differ from a pose by a symmetry turn.
     pub maskukf_pose_reset: Option<PoseReset>,
@@ -231,13 +231,16 @@ impl OnlineTracker for MaskUkfTracker {
             (Some(f), Some(reset), Some(m)) => reset.exceeded(&f.estimate().camera_from_object, &m),
             _ => false,
         };
-        if self.filter.is_none() || restarted {
-            let start = if restarted { measured } else { self.initial_pose.or(measured) };
-            let Some(start) = start else {
-                return Ok(None);
-            };
-            self.filter =
-                Some(MaskUkf::new(self.model.clone(), self.config.clone(), &PoseVelocity::at_rest(start))?);
+        match (self.filter.as_mut(), measured) {
+            (Some(filter), Some(pose)) if restarted => filter.move_to(&pose)?,
+            (Some(_), _) => {}
+            (None, _) => {
+                let Some(start) = self.initial_pose.or(measured) else {
+                    return Ok(None);
+                };
+                let at_rest = PoseVelocity::at_rest(start);
+                self.filter = Some(MaskUkf::new(self.model.clone(), self.config.clone(), &at_rest)?);
+            }
         }
         let cloud = match &self.mask {
             Some(mask) => Some(masked_cloud(&frame.depth, mask, &pinhole(&self.intrinsics))?),

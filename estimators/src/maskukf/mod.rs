@@ -174,6 +174,19 @@ impl MaskUkf {
         Ok(MaskUkf { config, model, belief, rng })
     }
 
+    /// Moves the estimate to `camera_from_object`, at rest, keeping the
+    /// covariance: the filter's confidence stays what it had learnt, so the
+    /// next correction does not swing as from `P_0` (not in the thesis; a
+    /// restart at an external pose measurement).
+    pub fn move_to(&mut self, camera_from_object: &Isometry3<f64>) -> Result<(), MaskUkfError> {
+        let target = PoseVelocity::at_rest(*camera_from_object);
+        if !target.is_finite() {
+            return Err(MaskUkfError::BadInitialState);
+        }
+        self.belief.mean = state::state_from_pose(&target);
+        Ok(())
+    }
+
     /// The current estimate.
     pub fn estimate(&self) -> PoseVelocity {
         state::pose_velocity(&self.belief.mean)

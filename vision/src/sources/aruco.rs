@@ -6,10 +6,10 @@ use std::path::Path;
 use std::sync::mpsc;
 use std::time::Instant;
 
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
-use slidetrack_calibration::{Dictionary, MarkerDetector, marker_pose};
-use slidetrack_core::{CameraIntrinsics, RgbdFrame, TimeNs};
+use slidetrack_calibration::{Dictionary, MarkerDetector, MarkerPose, marker_pose_candidates};
+use slidetrack_core::{CameraIntrinsics, DepthImage, RgbdFrame, TimeNs};
 use slidetrack_estimators::roft::Mask;
 
 use super::rendered_mask::MaskRenderer;
@@ -335,13 +335,32 @@ impl ArucoSource {
 }
 
 impl Measurer {
+    /// Of the two poses that explain the marker's corners, the one whose
+    /// plane agrees better with the measured depth: the plane fitted to the
+    /// depth over the marker (a 15x15 grid of its points) against each
+    /// pose's marker normal. The corners alone cannot tell a small or nearly
+    /// fronto-parallel marker's two tilts apart (their reprojection errors
+    /// differ by a fraction of a pixel), and the wrong tilt turns the object
+    /// about the marker: 80 degrees and 10 cm at the object's centre, in 10
+    /// of 60 frames of a simulated session. Without enough valid depth on
+    /// the marker, the one with the smaller reprojection error.
+    fn by_depth(&self, [first, second]: [MarkerPose; 2], depth: &DepthImage) -> MarkerPose {
+        let Some(normal) = depth_plane_normal(&first, self.marker_size_m, &self.intrinsics, depth) else {
+            return first;
+        };
+        let agreement =
+            |pose: &MarkerPose| (pose.camera_from_marker.rotation * Vector3::z()).dot(&normal).abs();
+        if agreement(&second) > agreement(&first) { second } else { first }
+    }
+
     /// Detects the marker in `frame`: the object's pose and mask, if seen.
     fn measure(&mut self, frame: &RgbdFrame) -> Result<Outcome, VisionError> {
         let detections = self.detector.detect(&frame.color)?;
         let Some(detection) = detections.iter().find(|d| d.id == self.marker_id) else {
             return Ok(Outcome::NoMarker);
         };
-        let pose = marker_pose(detection, &self.intrinsics, self.marker_size_m)?;
+        let candidates = marker_pose_candidates(detection, &self.intrinsics, self.marker_size_m)?;
+        let pose = self.by_depth(candidates, &frame.depth);
         if pose.reprojection_error_px > self.max_reprojection_error_px {
             return Ok(Outcome::Rejected);
         }
@@ -414,6 +433,49 @@ impl MeasurementSource for ArucoSource {
             s.frames_searched, s.poses, s.frames_without_marker, s.rejected
         ))
     }
+}
+
+/// The unit normal of the plane fitted (least squares) to the measured
+/// depth at a 15x15 grid of points inside the marker, as `pose` projects
+/// them (both candidate poses project the marker's inside to nearly the
+/// same pixels); `None` with fewer than 20 valid depth pixels there.
+fn depth_plane_normal(
+    pose: &MarkerPose,
+    marker_size_m: f64,
+    intrinsics: &CameraIntrinsics,
+    depth: &DepthImage,
+) -> Option<Vector3<f64>> {
+    let half = 0.4 * marker_size_m;
+    let points: Vec<Vector3<f64>> = (0..225)
+        .filter_map(|k| {
+            let (i, j) = (f64::from(k % 15) / 7.0 - 1.0, f64::from(k / 15) / 7.0 - 1.0);
+            let on_marker = nalgebra::Point3::new(i * half, j * half, 0.0);
+            let in_camera = pose.camera_from_marker * on_marker;
+            let (u, v) = intrinsics.project([in_camera.x, in_camera.y, in_camera.z])?;
+            let (u, v) = (u.round(), v.round());
+            if u < 0.0 || v < 0.0 || u >= f64::from(depth.width) || v >= f64::from(depth.height) {
+                return None;
+            }
+            let raw = depth.data[v as usize * depth.width as usize + u as usize];
+            let z = f64::from(raw) * depth.scale_m;
+            (raw > 0).then(|| {
+                Vector3::new(
+                    (u - intrinsics.cx) / intrinsics.fx * z,
+                    (v - intrinsics.cy) / intrinsics.fy * z,
+                    z,
+                )
+            })
+        })
+        .collect();
+    if points.len() < 20 {
+        return None;
+    }
+    let centroid = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    let scatter =
+        points.iter().map(|p| (p - centroid) * (p - centroid).transpose()).sum::<nalgebra::Matrix3<f64>>();
+    let eigen = scatter.symmetric_eigen();
+    let smallest = eigen.eigenvalues.imin();
+    Some(eigen.eigenvectors.column(smallest).into_owned())
 }
 
 #[cfg(test)]

@@ -160,6 +160,33 @@ fn background_detection_skips_frames_while_busy_and_hands_results_over_later() {
     assert!(source.summary().unwrap().contains("skipped while detection was busy"));
 }
 
+/// The marker's two IPPE poses, fed in either order, resolve to the one
+/// the depth agrees with: the true one, while the other is tilted the
+/// other way (tens of degrees off). Catches a choice by reprojection error
+/// alone, which the order swap turns around.
+#[test]
+fn the_depth_picks_the_true_one_of_the_two_marker_poses() {
+    let s = scene();
+    let intrinsics = s.scene.config().intrinsics.clone();
+    let mut source = ArucoSource::new(config(&s.object_from_marker), &model(), &intrinsics).unwrap();
+    let Runner::Inline(measurer) = &mut source.runner else { panic!("inline by default") };
+    let f = frame(&s, 0);
+    let detections = measurer.detector.detect(&f.color).unwrap();
+    let detection = detections.iter().find(|d| d.id == 7).unwrap();
+    let [a, b] = marker_pose_candidates(detection, &intrinsics, 0.05).unwrap();
+    let true_marker = s.camera_from_object * s.object_from_marker;
+    let off = |p: &MarkerPose| rotation_error_deg(&p.camera_from_marker, &true_marker);
+    let (good, bad) = if off(&a) < off(&b) { (a, b) } else { (b, a) };
+    assert!(off(&good) < 2.0 && off(&bad) > 10.0, "{} and {} deg", off(&good), off(&bad));
+    for pair in [[good.clone(), bad.clone()], [bad.clone(), good.clone()]] {
+        let picked = measurer.by_depth(pair, &f.depth);
+        assert!(off(&picked) < 2.0, "picked {} deg off", off(&picked));
+    }
+    // Without depth, the first (the smaller reprojection error) stands.
+    let no_depth = slidetrack_core::DepthImage::invalid(f.depth.width, f.depth.height, f.depth.scale_m);
+    assert_eq!(measurer.by_depth([bad.clone(), good], &no_depth), bad);
+}
+
 #[test]
 fn bad_configurations_are_refused_with_the_field() {
     let s = scene();
