@@ -15,6 +15,7 @@ use slidetrack_estimators::roft::Mask;
 use super::rendered_mask::MaskRenderer;
 use super::{Arrivals, Delayed, FrameTruth, MeasurementSource};
 use crate::VisionError;
+use crate::cloud::pinhole;
 use crate::model::ObjectModel;
 
 /// A rigid transform as written in the configuration files.
@@ -446,6 +447,7 @@ fn depth_plane_normal(
     depth: &DepthImage,
 ) -> Option<Vector3<f64>> {
     let half = 0.4 * marker_size_m;
+    let camera = pinhole(intrinsics);
     let points: Vec<Vector3<f64>> = (0..225)
         .filter_map(|k| {
             let (i, j) = (f64::from(k % 15) / 7.0 - 1.0, f64::from(k / 15) / 7.0 - 1.0);
@@ -453,18 +455,11 @@ fn depth_plane_normal(
             let in_camera = pose.camera_from_marker * on_marker;
             let (u, v) = intrinsics.project([in_camera.x, in_camera.y, in_camera.z])?;
             let (u, v) = (u.round(), v.round());
-            if u < 0.0 || v < 0.0 || u >= f64::from(depth.width) || v >= f64::from(depth.height) {
+            if u < 0.0 || v < 0.0 {
                 return None;
             }
-            let raw = depth.data[v as usize * depth.width as usize + u as usize];
-            let z = f64::from(raw) * depth.scale_m;
-            (raw > 0).then(|| {
-                Vector3::new(
-                    (u - intrinsics.cx) / intrinsics.fx * z,
-                    (v - intrinsics.cy) / intrinsics.fy * z,
-                    z,
-                )
-            })
+            let z = depth.depth_m(u as u32, v as u32)?;
+            Some(Vector3::from(camera.back_project(u, v, z)))
         })
         .collect();
     if points.len() < 20 {
