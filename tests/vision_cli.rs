@@ -201,6 +201,13 @@ fn bad_input_fails_with_one_clear_line() {
         "8",
     ]);
     assert!(line.contains("nothing.obj"), "{line}");
+    // The pose reset is MaskUKF's; a malformed one is named.
+    let roft = ["vision", "track", "--tracker", "roft", "--input", &ycb, "--model", "sim"];
+    let line = fails(&[&roft[..], &["--pose-reset", "3,20"]].concat());
+    assert!(line.contains("--pose-reset is MaskUKF's"), "{line}");
+    let out = common::run(&[&roft[..], &["--pose-reset", "3"]].concat());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("CM,DEG"), "{stderr}");
     let line = fails(&[
         "vision",
         "track",

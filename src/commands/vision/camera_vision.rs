@@ -20,7 +20,7 @@ use slidetrack_vision::live::LiveTracking;
 use slidetrack_vision::sources::SessionMeasurements;
 use slidetrack_vision::{TrackerKind, TrackerSettings};
 
-use super::inputs::{InputOptions, load_model, own_measurements};
+use super::inputs::{InputOptions, check_pose_reset, load_model, own_measurements};
 use super::live_camera::{self, StreamCounts};
 use super::track::external_config;
 use crate::cli::{CameraMeasurementsArg, InitArg, MeasurementsArg, TrackArgs};
@@ -36,14 +36,6 @@ pub struct CameraVision {
     pub streams: Option<StreamCounts>,
     /// Keys for the session's metadata: the tracker, its model, its inputs.
     pub metadata: BTreeMap<String, String>,
-}
-
-/// `--pose-reset` is MaskUKF's.
-fn check_pose_reset(args: &TrackArgs) -> Result<()> {
-    if args.pose_reset.is_some() && args.vision != Some(crate::cli::VisionArg::Maskukf) {
-        anyhow::bail!("--pose-reset is MaskUKF's: ROFT corrects with every pose it is given");
-    }
-    Ok(())
 }
 
 /// The camera table and the model `--vision` on a hardware rig needs,
@@ -63,7 +55,9 @@ pub fn requirements<'a>(
     let model_spec = args.vision_model.as_deref().context(
         "--vision on a hardware rig needs --vision-model (the object's mesh or point cloud, in metres)",
     )?;
-    check_pose_reset(args)?;
+    if let Some(kind) = args.vision {
+        check_pose_reset(args.pose_reset, kind.into())?;
+    }
     if args.vision_measurements == CameraMeasurementsArg::Aruco && args.aruco_config.is_none() {
         anyhow::bail!(
             "--vision-measurements aruco (the default) needs --aruco-config FILE, the marker on the object"
@@ -130,7 +124,7 @@ pub fn has_frames(session: &Path) -> Result<bool> {
 /// fed by its recorded masks and poses (`/vision/mask`, `/vision/pose`);
 /// the model is `--vision-model` or the one the session names.
 pub fn open_recorded(args: &TrackArgs, kind: TrackerKind, session: &Path) -> Result<CameraVision> {
-    check_pose_reset(args)?;
+    check_pose_reset(args.pose_reset, kind)?;
     let info = SessionInfo::read(session, ReadOptions::default())?;
     let recorded = info.metadata.get("slidetrack").and_then(|m| m.get("vision_model")).cloned();
     let model_spec = args.vision_model.clone().or(recorded).with_context(|| {

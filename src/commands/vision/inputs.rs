@@ -116,6 +116,17 @@ pub fn own_measurements(
     })
 }
 
+/// `--pose-reset` is MaskUKF's: refused with another tracker.
+pub fn check_pose_reset(
+    reset: Option<slidetrack_vision::PoseReset>,
+    kind: slidetrack_vision::TrackerKind,
+) -> Result<()> {
+    if reset.is_some() && kind != slidetrack_vision::TrackerKind::MaskUkf {
+        bail!("--pose-reset is MaskUKF's: ROFT corrects with every pose it is given");
+    }
+    Ok(())
+}
+
 /// The model: a file, or `sim` for the object of a simulated session.
 pub fn load_model(spec: &str, scale: f64, session: Option<(&Path, ReadOptions)>) -> Result<ObjectModel> {
     if spec == "sim" {

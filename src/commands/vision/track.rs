@@ -13,11 +13,11 @@ use slidetrack_vision::record::EstimateChannels;
 use slidetrack_vision::sources::ExternalConfig;
 use slidetrack_vision::{TrackerKind, TrackerSettings, build_tracker};
 
-use super::inputs::{InputOptions, Prepared, prepare};
+use super::inputs::{InputOptions, Prepared, check_pose_reset, prepare};
 use crate::cli::VisionTrackArgs as TrackArgs;
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
-    check_pose_reset(args)?;
+    check_pose_reset(args.pose_reset, args.tracker.kind())?;
     let Some(input) = &args.input else {
         return super::live::run(args, quiet);
     };
@@ -100,14 +100,6 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
 }
 
 /// The external source's settings from the command line.
-/// `--pose-reset` is MaskUKF's.
-fn check_pose_reset(args: &TrackArgs) -> Result<()> {
-    if args.pose_reset.is_some() && args.tracker.kind() != TrackerKind::MaskUkf {
-        anyhow::bail!("--pose-reset is MaskUKF's: ROFT corrects with every pose it is given");
-    }
-    Ok(())
-}
-
 pub(super) fn external_config(args: &crate::cli::ExternalArgs) -> ExternalConfig {
     ExternalConfig {
         listen: args.listen.clone(),
