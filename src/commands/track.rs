@@ -14,7 +14,7 @@ use slidetrack_experiment::dekf_run::load_model;
 use slidetrack_experiment::replay::{ReplayOptions, ReplaySession, check_rate};
 use slidetrack_experiment::rig::{RigKind, RigSetup, TrialSpec, build_rig};
 use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_experiment::tracking::{CameraVisionSummary, LiveStatus, LiveTrackers, VisionEnd};
+use slidetrack_experiment::tracking::{CameraVisionSummary, LiveStatus, LiveTrackers};
 use slidetrack_experiment::trial::{ExtensionFactory, prepare_out_dir, record_trial_with};
 use slidetrack_experiment::vision_inhand::{InHandVision, InHandVisionConfig};
 use slidetrack_live::LiveServer;
@@ -77,12 +77,10 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         }
         _ => None,
     };
-    let mut setup = build_rig(kind, &spec)?;
+    let setup = build_rig(kind, &spec)?;
     let camera_vision = match (camera_config, args.vision) {
         (Some(path), Some(v)) => {
-            let vision = camera_vision::open(args, v.into(), &rig, path, Arc::clone(&setup.rig.clock))?;
-            setup.extra_metadata.extend(vision.metadata.clone());
-            Some(vision)
+            Some(camera_vision::open(args, v.into(), &rig, path, Arc::clone(&setup.rig.clock))?)
         }
         _ => None,
     };
@@ -142,10 +140,7 @@ fn replay(args: &TrackArgs, model: &DekfModel, quiet: bool) -> Result<()> {
     }
     let live = super::live::start(&args.run.live)?;
     spec.live = live.as_ref().map(LiveServer::tap);
-    let mut setup = session.rig(ReplayOptions { camera: spec.camera, truth: true })?;
-    if let Some(v) = &camera_vision {
-        setup.extra_metadata.extend(v.metadata.clone());
-    }
+    let setup = session.rig(ReplayOptions { camera: spec.camera, truth: true })?;
     let tracked = track_on(args, model.clone(), setup, &spec, camera_vision, quiet);
     super::live::finish(live);
     tracked
@@ -166,7 +161,7 @@ fn prepare_parent(path: &std::path::Path) -> Result<()> {
 fn track_on(
     args: &TrackArgs,
     model: DekfModel,
-    setup: RigSetup,
+    mut setup: RigSetup,
     spec: &TrialSpec,
     camera_vision: Option<CameraVision>,
     quiet: bool,
@@ -180,14 +175,11 @@ fn track_on(
     let status = Arc::new(Mutex::new(LiveStatus::default()));
     let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
     let with_marker = setup.markers.is_some();
-    // Recorded frames are tracked to their end; a live camera until the trial ends.
-    let vision_end = if camera_vision.as_ref().is_some_and(|v| v.streams.is_none()) {
-        VisionEnd::WithItsFrames
-    } else {
-        VisionEnd::WithTheTrial
-    };
     let (camera_vision, streams) = match camera_vision {
-        Some(CameraVision { tracking, camera, streams, .. }) => (Some((tracking, camera)), streams),
+        Some(CameraVision { tracking, camera, streams, metadata, end }) => {
+            setup.extra_metadata.extend(metadata);
+            (Some((tracking, camera, end)), streams)
+        }
         None => (None, None),
     };
     let vision = match (args.vision, &camera_vision) {
@@ -216,9 +208,8 @@ fn track_on(
         if let Some(v) = vision {
             trackers = trackers.with_vision(v.with_recording(logger.clone(), record_rgbd)?);
         }
-        if let Some((tracking, camera)) = camera_vision {
-            let thread = tracking.recording_to(logger)?.spawn(camera);
-            trackers = trackers.with_camera_vision(thread, vision_end);
+        if let Some((tracking, camera, end)) = camera_vision {
+            trackers = trackers.with_camera_vision(tracking.recording_to(logger)?.spawn(camera), end);
         }
         Ok(Box::new(trackers) as Box<_>)
     });

@@ -14,6 +14,7 @@ use anyhow::{Context, Result};
 use slidetrack_core::Clock;
 use slidetrack_drivers::rgbd_config::RgbdCameraConfig;
 use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_experiment::tracking::VisionEnd;
 use slidetrack_session::{ChannelMessage, ReadOptions, RgbdColor, SessionInfo};
 use slidetrack_vision::input::{RgbdSource, SessionRgbd};
 use slidetrack_vision::live::LiveTracking;
@@ -36,6 +37,8 @@ pub struct CameraVision {
     pub streams: Option<StreamCounts>,
     /// Keys for the session's metadata: the tracker, its model, its inputs.
     pub metadata: BTreeMap<String, String>,
+    /// With the trial (a live camera) or at the end of the recorded frames.
+    pub end: VisionEnd,
 }
 
 /// The camera table and the model `--vision` on a hardware rig needs,
@@ -111,7 +114,8 @@ pub fn open(
     let settings = TrackerSettings { maskukf_pose_reset: args.pose_reset, ..TrackerSettings::default() };
     let tracking = LiveTracking::new(kind, model, intrinsics, &settings, source)?;
     let (camera, streams) = camera.split();
-    Ok(CameraVision { tracking, camera: Box::new(camera), streams: Some(streams), metadata })
+    let (camera, streams) = (Box::new(camera), Some(streams));
+    Ok(CameraVision { tracking, camera, streams, metadata, end: VisionEnd::WithTheTrial })
 }
 
 /// True when `session` recorded RGB-D frames (`/rgbd/color`).
@@ -142,5 +146,7 @@ pub fn open_recorded(args: &TrackArgs, kind: TrackerKind, session: &Path) -> Res
     ]);
     let settings = TrackerSettings { maskukf_pose_reset: args.pose_reset, ..TrackerSettings::default() };
     let tracking = LiveTracking::new(kind, model, intrinsics, &settings, measurements)?;
-    Ok(CameraVision { tracking, camera: Box::new(frames), streams: None, metadata })
+    // A replay reads faster than real time: the frames are tracked to their end.
+    let camera = Box::new(frames);
+    Ok(CameraVision { tracking, camera, streams: None, metadata, end: VisionEnd::WithItsFrames })
 }
