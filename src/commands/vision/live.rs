@@ -8,17 +8,16 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail, ensure};
 use serde_json::json;
-use slidetrack_core::{Clock, TimeNs, WallClock};
+use slidetrack_core::{CameraIntrinsics, Clock, TimeNs, WallClock};
 use slidetrack_estimators::metrics::perturbed_start;
 use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_session::{ReadOptions, Recorder, RecorderOptions};
 use slidetrack_vision::eval::{Scored, score};
-use slidetrack_vision::input::{RecordedTruth, RgbdSample, RgbdSource};
+use slidetrack_vision::input::{CameraPair, RecordedTruth, RgbdSample, RgbdSource};
 use slidetrack_vision::live::LiveTracking;
 use slidetrack_vision::sources::{
     Arrivals, FrameTruth, MeasurementSource, SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
@@ -45,7 +44,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let replayed = camera.replay.clone();
     let session = replayed.as_ref().map(|(p, _)| p.as_path());
     let model = load_model(&args.model, args.model_scale, session.map(|p| (p, ReadOptions::default())))?;
-    let mut truth = session.map(RecordedTruth::open).transpose()?;
+    let truth = session.map(RecordedTruth::open).transpose()?;
     let offset_ns = replayed.as_ref().map_or(0, |(_, o)| *o);
     let intrinsics = camera.pair.intrinsics().clone();
     let measurements = measurements(args, session, offset_ns, &model, &intrinsics)?;
@@ -57,15 +56,9 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let stop = crate::commands::stop_flag("closing the session");
     let started = Instant::now();
     let until = args.duration.map(|d| started + Duration::from_secs_f64(d));
-    let mut next = |camera: &mut LiveCamera| -> Result<Option<RgbdSample>> {
-        let Some(mut sample) = camera.pair.next_frame()? else { return Ok(None) };
-        if let Some(truth) = truth.as_mut() {
-            attach_truth(&mut sample, truth, offset_ns)?;
-        }
-        Ok(Some(sample))
-    };
+    let mut frames = WithTruth { camera: &mut camera.pair, truth, offset_ns };
     let mut tracking = None;
-    if let Some(first) = next(&mut camera)? {
+    if let Some(first) = frames.next_frame()? {
         let settings = TrackerSettings {
             initial_pose: initial_pose(args, &first)?,
             maskukf_pose_reset: args.pose_reset,
@@ -76,10 +69,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
             t = t.recording_to(&r.logger())?;
         }
         t.on_sample(first)?;
-        while !stop.load(Ordering::SeqCst) && until.is_none_or(|u| Instant::now() < u) {
-            let Some(sample) = next(&mut camera)? else { break };
-            t.on_sample(sample)?;
-        }
+        t.run(&mut frames, &stop, until)?;
         tracking = Some(t);
     }
     if let Some(r) = recorder {
@@ -113,14 +103,34 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     Ok(())
 }
 
-/// The truth a replayed session recorded for this frame, on the run's clock.
-fn attach_truth(sample: &mut RgbdSample, truth: &mut RecordedTruth, offset_ns: i128) -> Result<()> {
-    let t = sample.frame.t;
-    let recorded = u64::try_from(i128::from(t.0) - offset_ns).context("a frame before its recording")?;
-    let (pose, mask) = truth.at(TimeNs(recorded))?;
-    sample.truth = pose.map(|p| slidetrack_core::ObjectTruth { t, ..p });
-    sample.truth_mask = mask;
-    Ok(())
+/// The camera's frames, each with the truth a replayed session recorded for
+/// it (moved onto the run's clock) when there is one.
+struct WithTruth<'a> {
+    camera: &'a mut CameraPair,
+    truth: Option<RecordedTruth>,
+    /// Session time minus recording time (ns).
+    offset_ns: i128,
+}
+
+impl RgbdSource for WithTruth<'_> {
+    fn intrinsics(&self) -> &CameraIntrinsics {
+        self.camera.intrinsics()
+    }
+
+    fn next_frame(&mut self) -> Result<Option<RgbdSample>, VisionError> {
+        let Some(mut sample) = self.camera.next_frame()? else { return Ok(None) };
+        let Some(truth) = self.truth.as_mut() else { return Ok(Some(sample)) };
+        let t = sample.frame.t;
+        let recorded =
+            u64::try_from(i128::from(t.0) - self.offset_ns).map_err(|_| VisionError::BadValue {
+                what: "replayed frame",
+                detail: format!("at {} ns, before its recording started", t.0),
+            })?;
+        let (pose, mask) = truth.at(TimeNs(recorded))?;
+        sample.truth = pose.map(|p| slidetrack_core::ObjectTruth { t, ..p });
+        sample.truth_mask = mask;
+        Ok(Some(sample))
+    }
 }
 
 /// Where the tracker starts, as `--init` says, from the first frame.
@@ -145,7 +155,7 @@ fn measurements(
     session: Option<&Path>,
     offset_ns: i128,
     model: &ObjectModel,
-    intrinsics: &slidetrack_core::CameraIntrinsics,
+    intrinsics: &CameraIntrinsics,
 ) -> Result<Box<dyn MeasurementSource>> {
     let which = args.measurements;
     let options = InputOptions {
