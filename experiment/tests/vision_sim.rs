@@ -2,24 +2,15 @@
 //! 60 cm/s and 270 deg/s), rendered at 320x240 to keep the tests quick (the
 //! benchmark and `vision eval` use 640x480).
 
-use slidetrack_core::CameraIntrinsics;
 use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
 use slidetrack_experiment::vision_sim::{evaluate_variant, maskukf_on_sequence};
-use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
+use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, RgbdSceneConfig, SimObjectKind};
 use slidetrack_vision::TrackerSettings;
 use slidetrack_vision::eval::Variant;
 use slidetrack_vision::sources::SlowNetworkConfig;
 
 fn qvga(mut config: FastSequenceConfig) -> FastSequenceConfig {
-    config.scene.intrinsics = CameraIntrinsics {
-        width: 320,
-        height: 240,
-        fx: 277.15,
-        fy: 277.15,
-        cx: 159.5,
-        cy: 119.5,
-        distortion: [0.0; 5],
-    };
+    config.scene.intrinsics = RgbdSceneConfig::qvga_intrinsics();
     config
 }
 

@@ -7,11 +7,10 @@
 #![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use slidetrack_core::CameraIntrinsics;
 use slidetrack_estimators::maskukf::MeasurementUsed;
 use slidetrack_estimators::metrics::position_error_m;
 use slidetrack_estimators::roft::{Mask, PoseUse};
-use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
+use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, RgbdSceneConfig, SimObjectKind};
 use slidetrack_vision::cloud::mask;
 use slidetrack_vision::sources::{Arrivals, Delayed};
 use slidetrack_vision::{ObjectModel, StepNote, TrackerKind, TrackerSettings, VisionError, build_tracker};
@@ -23,15 +22,7 @@ const WRONG_SIZE: u64 = 18;
 
 fn sequence() -> FastSequence {
     let mut config = FastSequenceConfig::new(SimObjectKind::SugarBox, 1.2, 31);
-    config.scene.intrinsics = CameraIntrinsics {
-        width: 320,
-        height: 240,
-        fx: 277.15,
-        fy: 277.15,
-        cx: 159.5,
-        cy: 119.5,
-        distortion: [0.0; 5],
-    };
+    config.scene.intrinsics = RgbdSceneConfig::qvga_intrinsics();
     config.motion.max_speed_mps = 0.2;
     config.motion.max_angular_speed_dps = 60.0;
     FastSequence::new(config).unwrap()

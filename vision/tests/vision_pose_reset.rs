@@ -6,9 +6,8 @@
 #![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
-use slidetrack_core::CameraIntrinsics;
 use slidetrack_estimators::metrics::rotation_error_deg;
-use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, SimObjectKind};
+use slidetrack_sim::rgbd::{FastSequence, FastSequenceConfig, RgbdSceneConfig, SimObjectKind};
 use slidetrack_vision::cloud::mask;
 use slidetrack_vision::sources::{Arrivals, Delayed};
 use slidetrack_vision::{ObjectModel, PoseReset, StepNote, TrackerKind, TrackerSettings, build_tracker};
@@ -18,15 +17,7 @@ const POSE_AT: usize = 3;
 
 fn sequence() -> FastSequence {
     let mut config = FastSequenceConfig::new(SimObjectKind::CrackerBox, 0.5, 7);
-    config.scene.intrinsics = CameraIntrinsics {
-        width: 320,
-        height: 240,
-        fx: 277.15,
-        fy: 277.15,
-        cx: 159.5,
-        cy: 119.5,
-        distortion: [0.0; 5],
-    };
+    config.scene.intrinsics = RgbdSceneConfig::qvga_intrinsics();
     config.motion.max_speed_mps = 0.15;
     config.motion.max_angular_speed_dps = 45.0;
     FastSequence::new(config).unwrap()

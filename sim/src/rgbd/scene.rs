@@ -58,6 +58,20 @@ pub struct RgbdSceneConfig {
 }
 
 impl RgbdSceneConfig {
+    /// The [`RgbdSceneConfig::vga`] camera at half its resolution, 320x240
+    /// (tests that render many frames).
+    pub fn qvga_intrinsics() -> CameraIntrinsics {
+        CameraIntrinsics {
+            width: 320,
+            height: 240,
+            fx: 277.15,
+            fy: 277.15,
+            cx: 159.5,
+            cy: 119.5,
+            distortion: [0.0; 5],
+        }
+    }
+
     /// A 640x480 camera with a 60 degree horizontal field of view, the wall
     /// at 1.3 m, default noise.
     pub fn vga(seed: u64) -> RgbdSceneConfig {
