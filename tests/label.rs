@@ -149,3 +149,57 @@ fn tuned_ground_truth_meets_the_targets_without_the_simulators_truth() {
     assert!(params["tuning"].as_str().unwrap().contains("maximum marginal likelihood"), "{params}");
     assert_ne!(params["r_m2"].as_f64(), Some(2.5e-7), "the tuned R, not the default: {params}");
 }
+
+/// `--tune --jointly` estimates one set of parameters for all the files:
+/// each is labelled with the same values, within the targets, and records
+/// that they were tuned over the sessions; the joint log-likelihood is the
+/// sum of the sessions'. A file that cannot be read stops it before any file
+/// is written.
+#[test]
+fn joint_tuning_labels_every_session_with_one_estimate() {
+    let dir = tempdir();
+    let a = collect(dir.path(), "box", 5, 12.0, &[]);
+    let b = collect(dir.path(), "bottle", 6, 12.0, &[]);
+    let (pa, pb) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let blind = collect(dir.path(), "mustard", 7, 2.0, &["--no-camera"]);
+    let (a_bytes, blind_bytes) = (std::fs::read(&a).unwrap(), std::fs::read(&blind).unwrap());
+    let e = fails(&["label", pa, blind.to_str().unwrap(), "--tune", "--jointly"]);
+    assert!(e.contains("without a camera") && e.contains(blind.to_str().unwrap()), "{e}");
+    assert_eq!(std::fs::read(&a).unwrap(), a_bytes, "a file was written before the tuning failed");
+    assert_eq!(std::fs::read(&blind).unwrap(), blind_bytes);
+    let usage = run(&["label", pa, "--jointly"]);
+    let e = String::from_utf8_lossy(&usage.stderr);
+    assert!(usage.status.code() == Some(2) && e.contains("--tune"), "{e}");
+
+    let out: Value =
+        serde_json::from_str(&ok(&["-q", "label", pa, pb, "--tune", "--jointly", "--json"])).unwrap();
+    let joint = &out["joint_tuning"];
+    assert_eq!(joint["sessions"], 2, "{out}");
+    let sessions = out["sessions"].as_array().unwrap();
+    let mut sum = 0.0;
+    for s in sessions {
+        let (p, v) = (s["rmse"]["position_m"].as_f64().unwrap(), s["rmse"]["velocity_mps"].as_f64().unwrap());
+        eprintln!("{}: {:.3} mm, {:.3} mm/s; {}", s["file"], p * 1e3, v * 1e3, s["params"]);
+        assert!(p <= 0.15e-3 && v <= 0.35e-3, "{}: {p} m, {v} m/s", s["file"]);
+        for k in ["q_position_m2_per_s", "q_velocity_m2_per_s3", "r_m2"] {
+            assert_eq!(s["params"][k], joint[k], "{k}");
+        }
+        sum += s["params"]["log_likelihood"].as_f64().unwrap();
+    }
+    let total = joint["log_likelihood"].as_f64().unwrap();
+    assert!((total - sum).abs() < 1e-6 * total.abs(), "joint {total}, sum of the sessions {sum}");
+    let positions: u64 = sessions.iter().map(|s| s["marker_positions"].as_u64().unwrap()).sum();
+    assert_eq!(joint["marker_positions"].as_u64(), Some(positions));
+    for file in [&a, &b] {
+        let info = SessionInfo::read(file, ReadOptions::default()).unwrap();
+        let channel = info.channels.iter().find(|c| c.topic == "/ground_truth/sliding").unwrap();
+        let params: Value = serde_json::from_str(&channel.metadata["parameters"]).unwrap();
+        assert!(params["tuning"].as_str().unwrap().contains("jointly from the"), "{params}");
+        assert_eq!(params["r_m2"], joint["r_m2"]);
+        assert_eq!(params["gate_reacquire_after"], Value::Null, "the gate re-acquires only when asked");
+    }
+    let out: Value =
+        serde_json::from_str(&ok(&["-q", "label", pa, "--reacquire-after", "3", "--dry-run", "--json"]))
+            .unwrap();
+    assert_eq!(out[0]["params"]["gate_reacquire_after"], 3);
+}

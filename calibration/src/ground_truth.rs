@@ -402,9 +402,10 @@ pub fn rmse_against_truth(
     Some(Rmse { position_m: position.rms()?, velocity_mps: velocity.rms()?, samples: position.count() })
 }
 
-/// A gate for `max_mahalanobis2`, `None` when it is not a positive number.
+/// A gate for `max_mahalanobis2` (never re-acquiring: [`Gate`]), `None`
+/// when it is not a positive number.
 pub fn gate(max_mahalanobis2: Option<f64>) -> Option<Gate> {
-    max_mahalanobis2.filter(|g| g.is_finite() && *g > 0.0).map(|max_mahalanobis2| Gate { max_mahalanobis2 })
+    max_mahalanobis2.filter(|g| g.is_finite() && *g > 0.0).map(Gate::at)
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! the channel metadata.
 
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_estimators::rts::Gate;
 use slidetrack_session::GroundTruthParameters;
 
 use super::{Measurements, gate};
@@ -64,6 +65,7 @@ pub fn parameters_record(params: &CvSmootherParams, measurements: &Measurements)
         x0: params.x0,
         p0: [[pp, 0.0], [0.0, vv]],
         gate_max_mahalanobis2: params.gate.map(|g| g.max_mahalanobis2),
+        gate_reacquire_after: params.gate.and_then(|g| g.reacquire_after),
         measurement_source: format!("{}; 0 at the first valid sample", measurements.source),
         axis_in_camera: measurements.axis_in_camera.map(|a| [a.x, a.y, a.z]),
         tuning: None,
@@ -80,6 +82,9 @@ pub fn params_from_record(record: &GroundTruthParameters) -> CvSmootherParams {
         r_m2: record.r_m2,
         x0: record.x0,
         p0_diag: [record.p0[0][0], record.p0[1][1]],
-        gate: gate(record.gate_max_mahalanobis2),
+        gate: record
+            .gate_max_mahalanobis2
+            .filter(|g| g.is_finite() && *g > 0.0)
+            .map(|max_mahalanobis2| Gate { max_mahalanobis2, reacquire_after: record.gate_reacquire_after }),
     }
 }

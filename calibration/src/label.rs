@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use slidetrack_core::TimeNs;
 use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams};
-use slidetrack_estimators::cv_tune::{TunedNoise, tune_noise};
+use slidetrack_estimators::cv_tune::{TunedNoise, log_likelihood, tune_noise, tune_noise_jointly};
 use slidetrack_session::{
     ArucoDetection, ChannelMessage, GroundTruthMeasurement, GroundTruthSliding, MessageReader, NewChannel,
     ProtocolEvent, ReadOptions, SESSION_METADATA, SessionError, SessionInfo, SimTruth, TactileRaw,
@@ -33,11 +33,40 @@ pub struct LabelOptions {
     pub recover: bool,
     /// Compute and report, but do not write the file.
     pub dry_run: bool,
-    /// Estimate `q_p`, `q_v` and `R` from the session's marker positions
-    /// (maximum likelihood, starting from `params`) instead of using `params`'.
-    pub tune: bool,
+    /// Whether `params` are used as given, tuned on the session, or were
+    /// tuned over several sessions ([`tune_sessions`]).
+    pub tuning: Tuning,
     /// The channels written (and replaced).
     pub slot: GroundTruthSlot,
+}
+
+/// Where the smoother's noise parameters come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Tuning {
+    /// `LabelOptions::params` as given.
+    #[default]
+    Off,
+    /// `q_p`, `q_v` and `R` estimated from the session's own marker
+    /// positions (maximum likelihood, starting from `params`).
+    PerSession,
+    /// `params` are the estimate of [`tune_sessions`] over several
+    /// sessions; the labelling records how it was made.
+    Joint(JointTuning),
+}
+
+/// How [`tune_sessions`] estimated one set of parameters for several sessions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointTuning {
+    /// The parameters the search started from.
+    pub start: CvSmootherParams,
+    /// Sessions whose marker positions were used.
+    pub sessions: usize,
+    /// Marker positions used, over all sessions.
+    pub measurements: usize,
+    /// The summed log-likelihood of those positions at the estimate.
+    pub log_likelihood: f64,
+    /// Likelihood evaluations of the search.
+    pub evaluations: usize,
 }
 
 /// The pair of channels a labelling writes. A session can hold one ground
@@ -95,10 +124,14 @@ pub struct LabelReport {
     pub axis_in_camera: Option<[f64; 3]>,
     /// The file was written (false for a dry run).
     pub written: bool,
-    /// The smoother's parameters used (tuned ones with `tune`).
+    /// The smoother's parameters used (tuned ones when tuning).
     pub params: CvSmootherParams,
-    /// With `tune`: the log-likelihood of the marker positions at `params`.
-    pub tuned_log_likelihood: Option<f64>,
+    /// `params` were tuned (on this session or over several).
+    pub tuned: bool,
+    /// The log-likelihood of this session's marker positions at `params`
+    /// (the gated form of [`log_likelihood`]): compare parameter choices on
+    /// sessions they were not tuned on by it, without a true trajectory.
+    pub log_likelihood: f64,
 }
 
 /// Why a session could not be labelled. The file is unchanged in every case.
@@ -187,26 +220,109 @@ pub fn read_inputs(path: &Path, options: ReadOptions) -> Result<SessionInputs, S
     Ok(inputs)
 }
 
+/// The marker positions of `measurements` as the smoother's samples, time
+/// 0 at the first.
+fn marker_samples(measurements: &Measurements) -> Vec<CvSample> {
+    let t0 = measurements.positions.first().map_or(0, |p| p.0.0);
+    measurements
+        .positions
+        .iter()
+        .map(|(t, z)| CvSample { t_s: (t.0 - t0) as f64 * 1e-9, z_m: Some(*z) })
+        .collect()
+}
+
 /// The ground truth of `inputs`, and the parameters it was smoothed with
-/// (tuned on the marker positions with `options.tune`).
+/// (tuned on the marker positions with [`Tuning::PerSession`]; with
+/// [`Tuning::Joint`], `options.params` and this session's log-likelihood
+/// at them).
 pub fn compute(
     inputs: &SessionInputs,
     options: &LabelOptions,
 ) -> Result<Option<(Measurements, GroundTruth, Option<TunedNoise>)>, GroundTruthError> {
     let Some(detections) = &inputs.detections else { return Ok(None) };
     let measurements = marker_positions(detections, options.axis, inputs.rig_config.as_deref())?;
-    let tuned = options.tune.then(|| {
-        let t0 = measurements.positions.first().map_or(0, |p| p.0.0);
-        let samples: Vec<CvSample> = measurements
-            .positions
-            .iter()
-            .map(|(t, z)| CvSample { t_s: (t.0 - t0) as f64 * 1e-9, z_m: Some(*z) })
-            .collect();
-        tune_noise(&options.params, &samples)
-    });
+    let tuned = match options.tuning {
+        Tuning::Off => None,
+        Tuning::PerSession => Some(tune_noise(&options.params, &marker_samples(&measurements))),
+        Tuning::Joint(_) => {
+            let samples = marker_samples(&measurements);
+            Some(TunedNoise {
+                params: options.params,
+                log_likelihood: log_likelihood(&options.params, &samples),
+                measurements: samples.len(),
+                evaluations: 0,
+            })
+        }
+    };
     let params = tuned.as_ref().map_or(&options.params, |t| &t.params);
     let gt = smooth_ground_truth(&inputs.scans, &measurements.positions, params)?;
     Ok(Some((measurements, gt, tuned)))
+}
+
+/// One set of `q_p`, `q_v` and `R` for all the sessions at `paths` (one rig
+/// and marker), maximising the summed likelihood of their marker positions
+/// from `options.params`; label each with [`Tuning::Joint`] and the
+/// returned parameters. Sessions are read, not written.
+pub fn tune_sessions(
+    paths: &[PathBuf],
+    options: &LabelOptions,
+) -> Result<(CvSmootherParams, JointTuning), LabelError> {
+    let read = ReadOptions { recover: options.recover };
+    let mut sequences = Vec::with_capacity(paths.len());
+    for path in paths {
+        let inputs = read_inputs(path, read)?;
+        let detections =
+            inputs.detections.as_ref().ok_or_else(|| LabelError::NoCamera { path: path.to_path_buf() })?;
+        let measurements = marker_positions(detections, options.axis, inputs.rig_config.as_deref())
+            .map_err(|source| LabelError::GroundTruth { path: path.to_path_buf(), source })?;
+        sequences.push(marker_samples(&measurements));
+    }
+    let slices: Vec<&[CvSample]> = sequences.iter().map(Vec::as_slice).collect();
+    let tuned = tune_noise_jointly(&options.params, &slices);
+    let joint = JointTuning {
+        start: options.params,
+        sessions: paths.len(),
+        measurements: tuned.measurements,
+        log_likelihood: tuned.log_likelihood,
+        evaluations: tuned.evaluations,
+    };
+    Ok((tuned.params, joint))
+}
+
+/// How the parameters of a labelling were tuned, in words, for the channel
+/// metadata (`None` when they were given).
+fn tuning_record(options: &LabelOptions, tuned: Option<&TunedNoise>, report: &LabelReport) -> Option<String> {
+    match (options.tuning, tuned) {
+        (Tuning::Joint(j), _) => Some(format!(
+            "q_position_m2_per_s, q_velocity_m2_per_s3 and r_m2 estimated jointly from the {} marker positions of \
+             {} sessions (this one's {}) by maximum marginal likelihood (Kalman filter innovations, each session \
+             filtered from x0 and p0; a gated position counts at the gate's edge), Nelder-Mead on their logarithms \
+             from q_p = {:e}, q_v = {:e}, R = {:e}: summed log-likelihood {:.3} after {} evaluations; this \
+             session's {:.3}",
+            j.measurements,
+            j.sessions,
+            report.detections,
+            j.start.q_position_m2_per_s,
+            j.start.q_velocity_m2_per_s3,
+            j.start.r_m2,
+            j.log_likelihood,
+            j.evaluations,
+            report.log_likelihood,
+        )),
+        (_, Some(t)) => Some(format!(
+            "q_position_m2_per_s, q_velocity_m2_per_s3 and r_m2 estimated from the {} marker positions by maximum \
+             marginal likelihood (Kalman filter innovations; a gated position counts at the gate's edge), \
+             Nelder-Mead on their logarithms from q_p = {:e}, q_v = {:e}, R = {:e}: log-likelihood {:.3} after {} \
+             evaluations",
+            t.measurements,
+            options.params.q_position_m2_per_s,
+            options.params.q_velocity_m2_per_s3,
+            options.params.r_m2,
+            t.log_likelihood,
+            t.evaluations
+        )),
+        (_, None) => None,
+    }
 }
 
 /// Labels the session at `path`: see the module documentation.
@@ -237,26 +353,17 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
         axis_in_camera: measurements.axis_in_camera.map(|a| [a.x, a.y, a.z]),
         written: false,
         params: tuned.as_ref().map_or(options.params, |t| t.params),
-        tuned_log_likelihood: tuned.as_ref().map(|t| t.log_likelihood),
+        tuned: tuned.is_some(),
+        log_likelihood: tuned.as_ref().map_or_else(
+            || log_likelihood(&options.params, &marker_samples(&measurements)),
+            |t| t.log_likelihood,
+        ),
     };
     if options.dry_run {
         return Ok(report);
     }
     let mut record = parameters_record(&report.params, &measurements);
-    if let Some(t) = &tuned {
-        record.tuning = Some(format!(
-            "q_position_m2_per_s, q_velocity_m2_per_s3 and r_m2 estimated from the {} marker positions by maximum \
-             marginal likelihood (Kalman filter innovations; a gated position counts at the gate's edge), \
-             Nelder-Mead on their logarithms from q_p = {:e}, q_v = {:e}, R = {:e}: log-likelihood {:.3} after {} \
-             evaluations",
-            t.measurements,
-            options.params.q_position_m2_per_s,
-            options.params.q_velocity_m2_per_s3,
-            options.params.r_m2,
-            t.log_likelihood,
-            t.evaluations
-        ));
-    }
+    record.tuning = tuning_record(options, tuned.as_ref(), &report);
     let metadata = record.channel_metadata();
     let encode = |source| LabelError::Encode { path: path.to_path_buf(), source };
     let mut sliding_channel = NewChannel::of::<GroundTruthSliding>(metadata.clone());

@@ -32,8 +32,7 @@ fn smooth_all(params: &CvSmootherParams, sessions: &[Vec<CvSample>]) -> f64 {
 
 fn bench(c: &mut Criterion) {
     let sessions: Vec<Vec<CvSample>> = (0..SESSIONS).map(session).collect();
-    let params =
-        CvSmootherParams { gate: Some(Gate { max_mahalanobis2: 25.0 }), ..CvSmootherParams::default() };
+    let params = CvSmootherParams { gate: Some(Gate::at(25.0)), ..CvSmootherParams::default() };
     let mut group = c.benchmark_group("ground_truth");
     group.sample_size(10).measurement_time(Duration::from_secs(8));
     group.bench_function("smooth 100 sessions x 6000 steps", |b| {

@@ -47,10 +47,62 @@ pub struct Measurement<const N: usize, const M: usize> {
 /// distance of its innovation exceeds `max_mahalanobis2`. For `M` = 1 the
 /// distance is in standard deviations of the innovation, so 25 rejects
 /// anything beyond 5 sigma (chi-square tail 6e-7).
+///
+/// A gate alone can lock a filter out: when the state really changes faster
+/// than the model allows (an object that falls), every later measurement is
+/// beyond the gate and the filter coasts away on its prediction. With
+/// `reacquire_after = Some(n)`, after `n` measurements in a row were rejected
+/// the gate opens: measurements are accepted whatever their distance until
+/// `n` in a row fall inside it again (the filter has caught up), as a run
+/// of "outliers" is the state, not noise. Opening for one measurement, or
+/// until the first one inside, is not enough: the jump jolts the velocity,
+/// and the next positions fall outside the gate on the other side.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Gate {
     /// Largest accepted `y^T S^-1 y` (dimensionless).
     pub max_mahalanobis2: f64,
+    /// Rejections in a row after which the gate opens, until as many
+    /// measurements in a row are inside it; `None`: never (a measurement
+    /// beyond the gate is always rejected).
+    pub reacquire_after: Option<u32>,
+}
+
+impl Gate {
+    /// A gate at `max_mahalanobis2` that never re-acquires.
+    pub const fn at(max_mahalanobis2: f64) -> Gate {
+        Gate { max_mahalanobis2, reacquire_after: None }
+    }
+}
+
+/// What a [`Gate`] remembers between measurements.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GateState {
+    /// The last measurement was inside the gate (or there was none yet).
+    #[default]
+    Closed,
+    /// This many measurements in a row were rejected (at least one).
+    Rejecting(u32),
+    /// Re-acquiring: everything is accepted; this many in a row were inside.
+    Open(u32),
+}
+
+impl GateState {
+    /// Whether `gate` accepts a measurement at `mahalanobis2` (NaN distances
+    /// are outside it), and the state after it.
+    pub fn admits(&mut self, gate: &Gate, mahalanobis2: f64) -> bool {
+        let inside = mahalanobis2 <= gate.max_mahalanobis2;
+        let Some(n) = gate.reacquire_after else { return inside };
+        let (admitted, next) = match *self {
+            GateState::Open(k) if inside && k + 1 >= n => (true, GateState::Closed),
+            GateState::Open(k) => (true, GateState::Open(if inside { k + 1 } else { 0 })),
+            _ if inside => (true, GateState::Closed),
+            GateState::Rejecting(k) if k >= n => (true, GateState::Open(0)),
+            GateState::Rejecting(k) => (false, GateState::Rejecting(k + 1)),
+            GateState::Closed => (false, GateState::Rejecting(1)),
+        };
+        *self = next;
+        admitted
+    }
 }
 
 /// What a step did with its measurement.
@@ -103,13 +155,19 @@ pub struct GatedKalmanFilter<const N: usize> {
     belief: Gaussian<N>,
     gate: Option<Gate>,
     form: CovarianceUpdate,
+    gate_state: GateState,
 }
 
 impl<const N: usize> GatedKalmanFilter<N> {
     /// A filter starting from `initial`, the belief before the first step,
     /// without gating, with the Joseph-form covariance update.
     pub fn new(initial: Gaussian<N>) -> GatedKalmanFilter<N> {
-        GatedKalmanFilter { belief: initial, gate: None, form: CovarianceUpdate::Joseph }
+        GatedKalmanFilter {
+            belief: initial,
+            gate: None,
+            form: CovarianceUpdate::Joseph,
+            gate_state: GateState::default(),
+        }
     }
 
     /// Gates every measurement (see [`Gate`]).
@@ -147,7 +205,7 @@ impl<const N: usize> GatedKalmanFilter<N> {
     }
 
     fn correct<const M: usize>(
-        &self,
+        &mut self,
         prior: &Gaussian<N>,
         m: &Measurement<N, M>,
     ) -> Result<(Gaussian<N>, MeasurementUse), EstimatorError> {
@@ -156,11 +214,16 @@ impl<const N: usize> GatedKalmanFilter<N> {
         }
         if let Some(gate) = self.gate {
             let mahalanobis2 = innovation(prior, &m.z, &m.H, &m.R)?.mahalanobis2;
-            // NaN distances are rejected too.
-            let inside = mahalanobis2 <= gate.max_mahalanobis2;
-            if !inside {
+            let mut state = self.gate_state;
+            let admitted = state.admits(&gate, mahalanobis2);
+            if !admitted {
+                self.gate_state = state;
                 return Ok((*prior, MeasurementUse::Rejected { mahalanobis2 }));
             }
+            // Kept only once the update has succeeded.
+            let (posterior, innov) = update(prior, &m.z, &m.H, &m.R, self.form)?;
+            self.gate_state = state;
+            return Ok((posterior, MeasurementUse::Accepted { mahalanobis2: innov.mahalanobis2 }));
         }
         let (posterior, innov) = update(prior, &m.z, &m.H, &m.R, self.form)?;
         Ok((posterior, MeasurementUse::Accepted { mahalanobis2: innov.mahalanobis2 }))

@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
 use slidetrack_calibration::ground_truth::AxisSource;
-use slidetrack_calibration::label::{LabelOptions, label_session};
+use slidetrack_calibration::label::{LabelOptions, Tuning, label_session};
 use slidetrack_sim::ObjectConfig;
 
 use crate::protocol::Protocol;
@@ -132,7 +132,7 @@ pub fn label(files: &[PathBuf], protocol: Protocol, threads: usize, stop: &Atomi
         axis: AxisSource::Recorded,
         recover: false,
         dry_run: false,
-        tune: false,
+        tuning: Tuning::Off,
         slot: protocol.slot(),
     };
     parallel("label", files, threads, stop, |f| {

@@ -87,6 +87,11 @@ pub struct GroundTruthParameters {
     /// Innovation gate: largest accepted squared Mahalanobis distance, or
     /// `null` without gating.
     pub gate_max_mahalanobis2: Option<f64>,
+    /// The gate accepts the next position after this many rejected in a
+    /// row; `null` (and absent, in sessions labelled before it existed):
+    /// never.
+    #[serde(default)]
+    pub gate_reacquire_after: Option<u32>,
     /// Where the measured positions come from.
     pub measurement_source: String,
     /// Direction of positive sliding in the camera frame (unit vector), as used.
@@ -152,6 +157,7 @@ mod tests {
             x0: [0.0, 0.0],
             p0: [[1e-8, 0.0], [0.0, 1e-4]],
             gate_max_mahalanobis2: None,
+            gate_reacquire_after: None,
             measurement_source: "position_on_axis_m".into(),
             axis_in_camera: Some([0.0, 0.5, 0.5]),
             tuning: None,

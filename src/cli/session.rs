@@ -109,12 +109,25 @@ pub struct LabelArgs {
     /// Use every marker position (no outlier gate).
     #[arg(long)]
     pub no_gate: bool,
+    /// After N marker positions in a row rejected by the gate, open it
+    /// until N in a row fall inside again, so that an object that moved
+    /// faster than the model allows (a fall) is followed again instead of
+    /// the filter coasting away for the rest of the session (0: never, the
+    /// default). Not recorded in old sessions, which never re-acquire.
+    #[arg(long, value_name = "N", default_value_t = 0, conflicts_with = "no_gate")]
+    pub reacquire_after: u32,
     /// Estimate q_p, q_v and R from each session's marker positions
     /// (maximum likelihood, starting from the values above) and label with
     /// those; they are recorded in the ground-truth channels' metadata.
     /// Tunes with the innovation gate (the default one unless --gate says).
     #[arg(long, conflicts_with = "no_gate")]
     pub tune: bool,
+    /// With --tune: one set of parameters for all the files (one rig and
+    /// marker), maximising the summed likelihood of their marker positions,
+    /// instead of one per file; steadier where a session holds little
+    /// motion or few marker positions. Every file is read before any is written.
+    #[arg(long, requires = "tune")]
+    pub jointly: bool,
     /// Where to write the ground truth: `default` on `/ground_truth/sliding`
     /// and `/ground_truth/measurements` (what `train`, `eval` and the plots
     /// read), or `thesis` on `/ground_truth/thesis/...` (what `--truth

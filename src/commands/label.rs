@@ -6,13 +6,15 @@ use serde_json::json;
 use slidetrack_calibration::ground_truth::{
     AxisSource, DEFAULT_GATE_MAHALANOBIS2, default_params, gate, thesis_params,
 };
-use slidetrack_calibration::label::{GroundTruthSlot, LabelOptions, LabelReport, label_session};
+use slidetrack_calibration::label::{
+    GroundTruthSlot, JointTuning, LabelOptions, LabelReport, Tuning, label_session, tune_sessions,
+};
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
 
 use crate::cli::{AxisArg, LabelArgs, SlotArg};
 
 pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
-    let options = LabelOptions {
+    let mut options = LabelOptions {
         params: params(args)?,
         axis: match args.axis {
             AxisArg::Recorded => AxisSource::Recorded,
@@ -21,11 +23,22 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
         },
         recover: args.recover,
         dry_run: args.dry_run,
-        tune: args.tune,
+        tuning: if args.tune { Tuning::PerSession } else { Tuning::Off },
         slot: match args.slot {
             SlotArg::Default => GroundTruthSlot::Default,
             SlotArg::Thesis => GroundTruthSlot::Thesis,
         },
+    };
+    let joint = if args.jointly {
+        let (params, joint) = tune_sessions(&args.files, &options)?;
+        options.params = params;
+        options.tuning = Tuning::Joint(joint);
+        if !args.json {
+            println!("{}", joint_text(&params, &joint));
+        }
+        Some(joint)
+    } else {
+        None
     };
     let bar = if quiet || args.files.len() < 2 {
         ProgressBar::hidden()
@@ -59,7 +72,11 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
     }
     bar.finish_and_clear();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&summaries)?);
+        let out = match joint {
+            Some(j) => json!({ "joint_tuning": joint_json(&options.params, &j), "sessions": summaries }),
+            None => serde_json::Value::Array(summaries),
+        };
+        println!("{}", serde_json::to_string_pretty(&out)?);
     }
     if !failures.is_empty() {
         bail!(
@@ -98,7 +115,45 @@ fn params(args: &LabelArgs) -> Result<CvSmootherParams> {
         // position exactly (R -> 0, a noisy velocity): tune with the default gate.
         p.gate = gate(Some(DEFAULT_GATE_MAHALANOBIS2));
     }
+    if let Some(g) = p.gate.as_mut() {
+        g.reacquire_after = (args.reacquire_after > 0).then_some(args.reacquire_after);
+    }
     Ok(p)
+}
+
+/// The tuned densities in one line (R also as the marker's standard deviation).
+fn densities_text(p: &CvSmootherParams) -> String {
+    format!(
+        "q_p = {:.3e} m^2/s, q_v = {:.3e} m^2/s^3, R = {:.3e} m^2 (marker noise {:.3} mm)",
+        p.q_position_m2_per_s,
+        p.q_velocity_m2_per_s3,
+        p.r_m2,
+        p.r_m2.sqrt() * 1e3
+    )
+}
+
+fn joint_text(p: &CvSmootherParams, j: &JointTuning) -> String {
+    format!(
+        "tuned jointly on {} sessions ({} marker positions): {}; log-likelihood {:.1}",
+        j.sessions,
+        j.measurements,
+        densities_text(p),
+        j.log_likelihood
+    )
+}
+
+fn joint_json(p: &CvSmootherParams, j: &JointTuning) -> serde_json::Value {
+    json!({
+        "sessions": j.sessions,
+        "marker_positions": j.measurements,
+        "q_position_m2_per_s": p.q_position_m2_per_s,
+        "q_velocity_m2_per_s3": p.q_velocity_m2_per_s3,
+        "r_m2": p.r_m2,
+        "gate_max_mahalanobis2": p.gate.map(|g| g.max_mahalanobis2),
+        "gate_reacquire_after": p.gate.and_then(|g| g.reacquire_after),
+        "log_likelihood": j.log_likelihood,
+        "evaluations": j.evaluations,
+    })
 }
 
 fn to_text(r: &LabelReport) -> String {
@@ -106,16 +161,11 @@ fn to_text(r: &LabelReport) -> String {
         format!("; vs /sim/truth: RMSE {:.3} mm, {:.2} mm/s", e.position_m * 1e3, e.velocity_mps * 1e3)
     });
     let action = if r.written { "labelled" } else { "computed (dry run, not written)" };
-    let tuned = r.tuned_log_likelihood.map_or(String::new(), |_| {
-        let p = &r.params;
-        format!(
-            "\n  tuned: q_p = {:.3e} m^2/s, q_v = {:.3e} m^2/s^3, R = {:.3e} m^2 (marker noise {:.3} mm)",
-            p.q_position_m2_per_s,
-            p.q_velocity_m2_per_s3,
-            p.r_m2,
-            p.r_m2.sqrt() * 1e3
-        )
-    });
+    let tuned = if r.tuned {
+        format!("\n  tuned: {}; log-likelihood {:.1}", densities_text(&r.params), r.log_likelihood)
+    } else {
+        String::new()
+    };
     format!(
         "{}: {} scans {action}; {} camera frames, {} marker positions ({} missing), {} outliers rejected{rmse}{tuned}",
         r.path.display(),
@@ -142,8 +192,9 @@ fn to_json(r: &LabelReport) -> serde_json::Value {
             "q_velocity_m2_per_s3": r.params.q_velocity_m2_per_s3,
             "r_m2": r.params.r_m2,
             "gate_max_mahalanobis2": r.params.gate.map(|g| g.max_mahalanobis2),
-            "tuned": r.tuned_log_likelihood.is_some(),
-            "log_likelihood": r.tuned_log_likelihood,
+            "gate_reacquire_after": r.params.gate.and_then(|g| g.reacquire_after),
+            "tuned": r.tuned,
+            "log_likelihood": r.log_likelihood,
         },
         "rmse": r.rmse.map(|e| json!({
             "position_m": e.position_m,

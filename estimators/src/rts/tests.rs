@@ -195,7 +195,7 @@ fn a_gated_outlier_is_smoothed_as_if_it_were_missing() {
     let k_out = (10..30).find(|&k| good(k)).unwrap();
     // The random measurements do not follow the model: a wide gate that only
     // the 1000-unit outlier exceeds.
-    let mut filter = ForwardFilter::new(p.initial).with_gate(Some(Gate { max_mahalanobis2: 1e4 }));
+    let mut filter = ForwardFilter::new(p.initial).with_gate(Some(Gate::at(1e4)));
     let mut without = ForwardFilter::new(p.initial);
     for (k, (t, m)) in p.transitions.iter().zip(&p.measurements).enumerate() {
         let outlier = m.map(|m| Measurement { z: m.z.add_scalar(1e3), ..m });
@@ -213,6 +213,51 @@ fn a_gated_outlier_is_smoothed_as_if_it_were_missing() {
     let gated = smooth(filter.steps()).unwrap();
     let reference = smooth(without.steps()).unwrap();
     assert_eq!(gated, reference);
+}
+
+/// A constant-velocity filter at rest on 0 whose measured position jumps to
+/// 5 cm (a fall) and stays there: a gate alone rejects every later position
+/// and the filter stays at 0 for good; re-acquiring after 3 rejections in a
+/// row, it accepts the fourth and every one after. A single outlier is still
+/// rejected. (Opening the gate for the fourth position only, the filter
+/// stuttered: 10 of the next 14 positions rejected.)
+#[test]
+fn a_gate_that_reacquires_follows_a_jump_a_gate_alone_locks_out_of() {
+    let dt = 1.0 / 30.0;
+    let t = Transition {
+        F: SMatrix::<f64, 2, 2>::new(1.0, dt, 0.0, 1.0),
+        Q: SMatrix::<f64, 2, 2>::new(1e-8 * dt, 0.0, 0.0, 1e-4 * dt),
+    };
+    let initial =
+        Gaussian::new(SVector::<f64, 2>::zeros(), SMatrix::<f64, 2, 2>::new(2.5e-7, 0.0, 0.0, 1e-4));
+    let at = |z: f64| Measurement {
+        z: SVector::<f64, 1>::new(z),
+        H: SMatrix::<f64, 1, 2>::new(1.0, 0.0),
+        R: SMatrix::<f64, 1, 1>::new(2.5e-7),
+    };
+    // 1 s at 0 with one 2 cm outlier at 0.5 s, then 1 s at 5 cm.
+    let z = |k: usize| match k {
+        15 => 0.02,
+        k if k < 30 => 0.0,
+        _ => 0.05,
+    };
+    let run = |gate: Gate| {
+        let mut filter = ForwardFilter::new(initial).with_gate(Some(gate));
+        for k in 0..60 {
+            filter.step(t, Some(&at(z(k)))).unwrap();
+        }
+        let rejected: Vec<usize> = (0..60)
+            .filter(|&k| matches!(filter.steps()[k].measurement, MeasurementUse::Rejected { .. }))
+            .collect();
+        (filter.steps()[59].posterior.mean[0], rejected)
+    };
+    let (locked, rejected) = run(Gate::at(25.0));
+    assert!(locked.abs() < 1e-3, "the gate alone ends at {locked} m");
+    assert_eq!(rejected, [[15].as_slice(), &(30..60).collect::<Vec<_>>()].concat());
+    let (followed, rejected) = run(Gate { max_mahalanobis2: 25.0, reacquire_after: Some(3) });
+    assert!((followed - 0.05).abs() < 1e-3, "re-acquiring, it ends at {followed} m");
+    assert_eq!(rejected[0], 15, "the lone outlier is rejected");
+    assert_eq!(rejected, [15, 30, 31, 32], "rejected: the outlier and the first three after the jump");
 }
 
 #[test]
