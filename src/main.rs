@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    quiet_closed_stdout();
     let cli = cli::Cli::parse();
     let level = match (cli.quiet, cli.verbose) {
         (true, _) => "error",
@@ -29,6 +30,23 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `println!` panics when standard output is closed (`slidetrack label ... |
+/// head -1`). Say so in one line instead of a panic report with a backtrace;
+/// the unwinding that follows still closes sessions and releases devices as
+/// an error would. (Restoring SIGPIPE's default action instead would kill
+/// the process at once, without that.)
+fn quiet_closed_stdout() {
+    let report = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info.payload_as_str().unwrap_or_default();
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            eprintln!("slidetrack: standard output was closed; stopping");
+        } else {
+            report(info);
+        }
+    }));
 }
 
 /// The error and its causes on one line, skipping a cause whose text the

@@ -203,3 +203,18 @@ fn joint_tuning_labels_every_session_with_one_estimate() {
             .unwrap();
     assert_eq!(out[0]["params"]["gate_reacquire_after"], 3);
 }
+
+/// With its standard output closed (`slidetrack label ... | head -0`), the
+/// command stops with one line, not a panic report and backtrace.
+#[test]
+fn a_closed_standard_output_stops_with_one_line() {
+    let dir = tempdir();
+    let file = collect(dir.path(), "box", 8, 2.0, &[]);
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = common::slidetrack().args(["label", file.to_str().unwrap()]).stdout(writer).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains("standard output was closed"), "{stderr}");
+    assert!(!stderr.contains("panicked") && !stderr.contains("backtrace"), "{stderr}");
+}
