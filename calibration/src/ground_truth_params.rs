@@ -82,9 +82,7 @@ pub fn params_from_record(record: &GroundTruthParameters) -> CvSmootherParams {
         r_m2: record.r_m2,
         x0: record.x0,
         p0_diag: [record.p0[0][0], record.p0[1][1]],
-        gate: record
-            .gate_max_mahalanobis2
-            .filter(|g| g.is_finite() && *g > 0.0)
-            .map(|max_mahalanobis2| Gate { max_mahalanobis2, reacquire_after: record.gate_reacquire_after }),
+        gate: gate(record.gate_max_mahalanobis2)
+            .map(|g| Gate { reacquire_after: record.gate_reacquire_after, ..g }),
     }
 }

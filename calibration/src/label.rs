@@ -231,32 +231,50 @@ fn marker_samples(measurements: &Measurements) -> Vec<CvSample> {
         .collect()
 }
 
+/// The parameters a labelling smoothed with, and how well they fit its
+/// marker positions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fit {
+    /// The smoother's parameters used.
+    pub params: CvSmootherParams,
+    /// The log-likelihood of the session's marker positions at `params`.
+    pub log_likelihood: f64,
+    /// With [`Tuning::PerSession`]: how `params` were found.
+    pub tuned: Option<TunedNoise>,
+}
+
+/// The marker positions of a session along the sliding axis, `None` when
+/// it was recorded without a camera.
+fn marker_measurements(
+    inputs: &SessionInputs,
+    options: &LabelOptions,
+) -> Result<Option<Measurements>, GroundTruthError> {
+    let Some(detections) = &inputs.detections else { return Ok(None) };
+    marker_positions(detections, options.axis, inputs.rig_config.as_deref()).map(Some)
+}
+
 /// The ground truth of `inputs`, and the parameters it was smoothed with
-/// (tuned on the marker positions with [`Tuning::PerSession`]; with
-/// [`Tuning::Joint`], `options.params` and this session's log-likelihood
-/// at them).
+/// (tuned on the marker positions with [`Tuning::PerSession`], as given
+/// otherwise).
 pub fn compute(
     inputs: &SessionInputs,
     options: &LabelOptions,
-) -> Result<Option<(Measurements, GroundTruth, Option<TunedNoise>)>, GroundTruthError> {
-    let Some(detections) = &inputs.detections else { return Ok(None) };
-    let measurements = marker_positions(detections, options.axis, inputs.rig_config.as_deref())?;
-    let tuned = match options.tuning {
-        Tuning::Off => None,
-        Tuning::PerSession => Some(tune_noise(&options.params, &marker_samples(&measurements))),
-        Tuning::Joint(_) => {
-            let samples = marker_samples(&measurements);
-            Some(TunedNoise {
-                params: options.params,
-                log_likelihood: log_likelihood(&options.params, &samples),
-                measurements: samples.len(),
-                evaluations: 0,
-            })
+) -> Result<Option<(Measurements, GroundTruth, Fit)>, GroundTruthError> {
+    let Some(measurements) = marker_measurements(inputs, options)? else { return Ok(None) };
+    let samples = marker_samples(&measurements);
+    let fit = match options.tuning {
+        Tuning::PerSession => {
+            let t = tune_noise(&options.params, &samples);
+            Fit { params: t.params, log_likelihood: t.log_likelihood, tuned: Some(t) }
         }
+        Tuning::Off | Tuning::Joint(_) => Fit {
+            params: options.params,
+            log_likelihood: log_likelihood(&options.params, &samples),
+            tuned: None,
+        },
     };
-    let params = tuned.as_ref().map_or(&options.params, |t| &t.params);
-    let gt = smooth_ground_truth(&inputs.scans, &measurements.positions, params)?;
-    Ok(Some((measurements, gt, tuned)))
+    let gt = smooth_ground_truth(&inputs.scans, &measurements.positions, &fit.params)?;
+    Ok(Some((measurements, gt, fit)))
 }
 
 /// One set of `q_p`, `q_v` and `R` for all the sessions at `paths` (one rig
@@ -270,11 +288,9 @@ pub fn tune_sessions(
     let read = ReadOptions { recover: options.recover };
     let mut sequences = Vec::with_capacity(paths.len());
     for path in paths {
-        let inputs = read_inputs(path, read)?;
-        let detections =
-            inputs.detections.as_ref().ok_or_else(|| LabelError::NoCamera { path: path.to_path_buf() })?;
-        let measurements = marker_positions(detections, options.axis, inputs.rig_config.as_deref())
-            .map_err(|source| LabelError::GroundTruth { path: path.to_path_buf(), source })?;
+        let measurements = marker_measurements(&read_inputs(path, read)?, options)
+            .map_err(|source| LabelError::GroundTruth { path: path.to_path_buf(), source })?
+            .ok_or_else(|| LabelError::NoCamera { path: path.to_path_buf() })?;
         sequences.push(marker_samples(&measurements));
     }
     let slices: Vec<&[CvSample]> = sequences.iter().map(Vec::as_slice).collect();
@@ -330,7 +346,7 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
     let read = ReadOptions { recover: options.recover };
     let inputs = read_inputs(path, read)?;
     let gt_err = |source| LabelError::GroundTruth { path: path.to_path_buf(), source };
-    let (measurements, gt, tuned) = compute(&inputs, options)
+    let (measurements, gt, fit) = compute(&inputs, options)
         .map_err(gt_err)?
         .ok_or_else(|| LabelError::NoCamera { path: path.to_path_buf() })?;
     let sliding = gt.sliding();
@@ -352,18 +368,15 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
         rmse,
         axis_in_camera: measurements.axis_in_camera.map(|a| [a.x, a.y, a.z]),
         written: false,
-        params: tuned.as_ref().map_or(options.params, |t| t.params),
-        tuned: tuned.is_some(),
-        log_likelihood: tuned.as_ref().map_or_else(
-            || log_likelihood(&options.params, &marker_samples(&measurements)),
-            |t| t.log_likelihood,
-        ),
+        params: fit.params,
+        tuned: options.tuning != Tuning::Off,
+        log_likelihood: fit.log_likelihood,
     };
     if options.dry_run {
         return Ok(report);
     }
     let mut record = parameters_record(&report.params, &measurements);
-    record.tuning = tuning_record(options, tuned.as_ref(), &report);
+    record.tuning = tuning_record(options, fit.tuned.as_ref(), &report);
     let metadata = record.channel_metadata();
     let encode = |source| LabelError::Encode { path: path.to_path_buf(), source };
     let mut sliding_channel = NewChannel::of::<GroundTruthSliding>(metadata.clone());
