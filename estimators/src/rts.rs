@@ -212,20 +212,17 @@ impl<const N: usize> GatedKalmanFilter<N> {
         if !m.z.iter().all(|v| v.is_finite()) {
             return Err(EstimatorError::NonFiniteMeasurement);
         }
+        // The gate's next state is kept only once the step has succeeded.
+        let mut state = self.gate_state;
         if let Some(gate) = self.gate {
             let mahalanobis2 = innovation(prior, &m.z, &m.H, &m.R)?.mahalanobis2;
-            let mut state = self.gate_state;
-            let admitted = state.admits(&gate, mahalanobis2);
-            if !admitted {
+            if !state.admits(&gate, mahalanobis2) {
                 self.gate_state = state;
                 return Ok((*prior, MeasurementUse::Rejected { mahalanobis2 }));
             }
-            // Kept only once the update has succeeded.
-            let (posterior, innov) = update(prior, &m.z, &m.H, &m.R, self.form)?;
-            self.gate_state = state;
-            return Ok((posterior, MeasurementUse::Accepted { mahalanobis2: innov.mahalanobis2 }));
         }
         let (posterior, innov) = update(prior, &m.z, &m.H, &m.R, self.form)?;
+        self.gate_state = state;
         Ok((posterior, MeasurementUse::Accepted { mahalanobis2: innov.mahalanobis2 }))
     }
 }
