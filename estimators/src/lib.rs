@@ -6,13 +6,16 @@ pub mod cv_tune;
 pub mod dekf;
 pub mod derivative;
 pub mod kf;
+pub mod linear_map;
 pub mod maskukf;
 pub mod metrics;
 pub mod orientation;
+pub mod pose_smoother;
 pub mod roft;
 pub mod rts;
 pub mod seq_kf;
 pub mod seq_ukf;
+pub mod slip;
 pub mod ukf;
 
 use thiserror::Error;
