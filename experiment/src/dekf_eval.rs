@@ -57,7 +57,7 @@ pub fn score_outputs(outputs: &[(TimeNs, DekfOutput)], data: &SessionData) -> Re
     let mut tru = Vec::with_capacity(outputs.len());
     for (t, o) in outputs {
         if let Some(&i) = index.get(&t.0) {
-            est.push(o.mean);
+            est.push([o.mean[0], o.mean[1]]);
             tru.push([(truth[i][0] - origin) * CM, truth[i][1] * CM]);
         }
     }

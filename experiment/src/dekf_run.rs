@@ -95,7 +95,7 @@ pub fn sequence(model: &DekfModel, inputs: &Inputs) -> Result<Sequence> {
         measurements.extend(v.iter().map(|x| if x.is_finite() { *x } else { 0.0 }));
         valid.push(ok);
     }
-    Ok(Sequence { measurements, valid, truth })
+    Ok(Sequence::sliding(measurements, valid, &truth))
 }
 
 /// Default largest relative difference between a session's tactile rate and
@@ -176,11 +176,11 @@ pub fn run(model: &DekfModel, session: &SessionData) -> Result<Vec<(TimeNs, Dekf
 /// The `/estimate/dekf` message of a dEKF output (cm -> m).
 pub fn estimate_message(o: &DekfOutput) -> DekfEstimate {
     let s = 1.0 / CM;
-    let c = o.cov;
+    let c = |r, k| o.cov_at(r, k) * s * s;
     DekfEstimate(SlidingEstimate {
         position: o.mean[0] * s,
         velocity: o.mean[1] * s,
-        covariance: [[c[0][0] * s * s, c[0][1] * s * s], [c[1][0] * s * s, c[1][1] * s * s]],
+        covariance: [[c(0, 0), c(0, 1)], [c(1, 0), c(1, 1)]],
     })
 }
 

@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use serde_json::json;
 use slidetrack_estimators::dekf::{
     Architecture, Batching, DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence,
-    Stage, TrainConfig, train_with_selection,
+    Stage, StateKind, TrainConfig, train_with_selection,
 };
 use slidetrack_estimators::derivative::{DEFAULT_OUTLIER_GATE_SIGMA, DerivativeFilterConfig};
 
@@ -176,8 +176,9 @@ fn new_model(
         channels: channels.clone(),
         measurement: spec.measurement,
         derivative_filter: filter,
-        state_units: ["cm".into(), "cm/s".into()],
-        p0_diag: [0.1, 0.1],
+        state: StateKind::Sliding,
+        state_units: StateKind::Sliding.units(),
+        p0_diag: StateKind::Sliding.default_p0_diag(),
         training: json!({
             "config": cfg,
             "truth": spec.truth.topic(),

@@ -329,11 +329,11 @@ impl TrialExtension for LiveTrackers {
         let released = self.released;
         self.with_status(|s| {
             s.t_s = out.t_s;
-            s.dekf = Some(out.mean);
+            s.dekf = Some([out.mean[0], out.mean[1]]);
             s.truth = truth;
             s.dekf_steps += 1;
             if let (Some(tr), false) = (truth, released) {
-                s.dekf_errors.add(out.mean, tr);
+                s.dekf_errors.add([out.mean[0], out.mean[1]], tr);
             }
         });
         Ok(())

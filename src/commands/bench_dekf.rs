@@ -11,7 +11,7 @@ use std::time::Instant;
 use anyhow::Result;
 use rand::SeedableRng;
 use serde_json::{Value, json};
-use slidetrack_estimators::dekf::{DekfModel, DekfTracker, Measurement, ModelMeta};
+use slidetrack_estimators::dekf::{DekfModel, DekfTracker, Measurement, ModelMeta, StateKind};
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
 use slidetrack_experiment::dataset::{ChannelSet, TruthSource, load};
 use slidetrack_experiment::dekf_train::TrainSpec;
@@ -48,8 +48,9 @@ pub fn step(runs: usize) -> Result<Value> {
         channels: channels.clone(),
         measurement: Measurement::Derivative,
         derivative_filter: DerivativeFilterConfig::default(),
-        state_units: ["cm".into(), "cm/s".into()],
-        p0_diag: [0.1, 0.1],
+        state: StateKind::Sliding,
+        state_units: StateKind::Sliding.units(),
+        p0_diag: StateKind::Sliding.default_p0_diag(),
         training: json!({}),
         software_version: env!("CARGO_PKG_VERSION").into(),
     };

@@ -12,6 +12,7 @@ use super::ekf::{
 use super::filter::MIN_INNOVATION_VAR;
 use super::mlp::{Tape, backward, forward};
 use super::model::DekfModel;
+use super::state::StateKind;
 
 /// A training sequence at the filter's rate.
 #[derive(Clone, Debug, PartialEq)]
@@ -20,35 +21,49 @@ pub struct Sequence {
     pub measurements: Vec<f32>,
     /// Whether step `t` has a usable measurement.
     pub valid: Vec<bool>,
-    /// Ground-truth state per step `(p, v)` (cm, cm/s).
-    pub truth: Vec<[f64; 2]>,
+    /// Ground-truth state per step, `dim` components each, step after step:
+    /// `(p, v)` (cm, cm/s) for a sliding model (see [`super::StateKind`]).
+    pub truth: Vec<f64>,
+    /// Components of the state.
+    pub dim: usize,
 }
 
 impl Sequence {
+    /// A sequence of a two-component (sliding) state from `(p, v)` per step.
+    pub fn sliding(measurements: Vec<f32>, valid: Vec<bool>, truth: &[[f64; 2]]) -> Sequence {
+        Sequence { measurements, valid, truth: truth.iter().flatten().copied().collect(), dim: 2 }
+    }
+
     /// Number of steps.
     pub fn len(&self) -> usize {
-        self.truth.len()
+        self.valid.len()
     }
 
     /// True for a sequence without steps.
     pub fn is_empty(&self) -> bool {
-        self.truth.is_empty()
+        self.valid.is_empty()
+    }
+
+    /// The ground-truth state at step `t`.
+    pub fn truth_at(&self, t: usize) -> &[f64] {
+        &self.truth[t * self.dim..(t + 1) * self.dim]
     }
 }
 
 /// One subsequence of a batch: sequence index, start step and initial state.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Window {
     /// Index of the sequence.
     pub sequence: usize,
     /// First step `t0`; the filter starts there and steps to `t0 + T_s`.
     pub start: usize,
     /// Initial mean, drawn from `N(x_gt(t0), P0)` (2.148), with the window's
-    /// position shift added.
-    pub mean0: [f64; 2],
-    /// Added to the ground-truth position of every step of the window (cm):
-    /// the whole window moved along the sliding axis (0: as recorded).
-    pub position_shift: f64,
+    /// position shift added (one value per state component).
+    pub mean0: Vec<f64>,
+    /// Added to the ground-truth positions of every step of the window, one
+    /// per degree of freedom (cm; deg for a rotation): the whole window
+    /// moved (0: as recorded).
+    pub position_shift: Vec<f64>,
 }
 
 /// Loss and gradient of a batch (or a shard of it).
@@ -106,12 +121,22 @@ fn through_network(
 }
 
 /// Runs the filter over `windows` for `length` steps and backpropagates the
-/// sum of squared state errors. Deterministic for given inputs.
+/// sum of squared state errors. Deterministic for given inputs. Any state:
+/// a sliding model runs the thesis's scalar filter, a planar one the vector
+/// filter of [`super::multi`].
+pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], length: usize) -> BatchGrad {
+    match model.state() {
+        StateKind::Sliding => sliding_batch_grad(model, data, windows, length),
+        StateKind::Planar => super::multi::bptt::batch_grad::<6, 3>(model, data, windows, length),
+    }
+}
+
+/// [`batch_grad`] of a sliding model: the thesis's filter of [`super::ekf`].
 #[expect(
     clippy::too_many_lines,
     reason = "one function on purpose: the reverse pass mirrors the forward pass step by step over the same tape, and keeping both in view makes a mismatch visible (the finite-difference tests check them)"
 )]
-pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], length: usize) -> BatchGrad {
+fn sliding_batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], length: usize) -> BatchGrad {
     let p = &model.params;
     let l = &model.layout;
     let n = windows.len();
@@ -119,8 +144,8 @@ pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], leng
     let dt = model.meta.dt_s;
     let Q = model.process_noise();
     let R = model.measurement_noise();
-    let p0 = model.meta.p0_diag;
-    let mut mean: Vec<[f64; 2]> = windows.iter().map(|w| w.mean0).collect();
+    let p0 = [model.meta.p0_diag[0], model.meta.p0_diag[1]];
+    let mut mean: Vec<[f64; 2]> = windows.iter().map(|w| [w.mean0[0], w.mean0[1]]).collect();
     let mut cov: Vec<M2> = vec![[[p0[0], 0.0], [0.0, p0[1]]]; n];
     let mut steps: Vec<Step> = Vec::with_capacity(length);
     let mut out =
@@ -156,8 +181,8 @@ pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], leng
                 .then(|| correct(pr.mean, &pr.cov, f64::from(y3[(0, s)]), f64::from(y2[(0, 3 * s)]), h, R))
                 .filter(|co| co.mean.iter().chain(co.cov.iter().flatten()).all(|v| v.is_finite()));
             let (m, cv) = co.as_ref().map_or((pr.mean, pr.cov), |co| (co.mean, co.cov));
-            let truth = data[w.sequence].truth[t];
-            let e = [m[0] - truth[0] - w.position_shift, m[1] - truth[1]];
+            let truth = data[w.sequence].truth_at(t);
+            let e = [m[0] - truth[0] - w.position_shift[0], m[1] - truth[1]];
             out.squared_error_pv[0] += e[0] * e[0];
             out.squared_error_pv[1] += e[1] * e[1];
             mean.push(m);
@@ -188,10 +213,10 @@ pub fn batch_grad(model: &DekfModel, data: &[Sequence], windows: &[Window], leng
         let mut dy1 = DMatrix::<f32>::zeros(1, 3 * n);
         cgs.clear();
         for (s, w) in windows.iter().enumerate() {
-            let truth = data[w.sequence].truth[t_of(w)];
+            let truth = data[w.sequence].truth_at(t_of(w));
             let m = step.mean[s];
             // d/dmu of |x_gt - mu|^2.
-            dmean[s][0] += 2.0 * (m[0] - truth[0] - w.position_shift);
+            dmean[s][0] += 2.0 * (m[0] - truth[0] - w.position_shift[0]);
             dmean[s][1] += 2.0 * (m[1] - truth[1]);
             let pr = &step.pred[s];
             cgs.push(match &step.corr[s] {

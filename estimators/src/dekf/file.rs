@@ -154,7 +154,18 @@ pub fn from_bytes(bytes: &[u8]) -> Result<DekfModel, ModelFileError> {
             detail: "needs channels, a positive dt_s and decimation".into(),
         });
     }
-    let layout = Layout::with_architecture(meta.channels.len(), &arch);
+    let dim = meta.state.dim();
+    if meta.p0_diag.len() != dim || meta.state_units.len() != dim {
+        return Err(ModelFileError::Metadata {
+            detail: format!(
+                "a {} state has {dim} components, but p0_diag has {} and state_units {}",
+                meta.state,
+                meta.p0_diag.len(),
+                meta.state_units.len()
+            ),
+        });
+    }
+    let layout = Layout::for_state(meta.state, meta.channels.len(), &arch);
     let mut params = vec![0.0f32; layout.len];
     for e in &layout.entries {
         let bad = |detail: String| ModelFileError::Tensor { name: e.name.clone(), detail };
@@ -181,8 +192,10 @@ pub fn from_bytes(bytes: &[u8]) -> Result<DekfModel, ModelFileError> {
             params[e.range()].copy_from_slice(&v);
         }
     }
-    // L_Q is lower-triangular.
-    params[layout.process_noise + 1] = 0.0;
+    // L_Q and L_R are lower-triangular.
+    for i in layout.upper_triangles() {
+        params[i] = 0.0;
+    }
     Ok(DekfModel { layout, params, meta })
 }
 
@@ -205,8 +218,9 @@ mod tests {
             channels: vec!["thumb.x".into(), "thumb.y".into()],
             measurement: Measurement::Derivative,
             derivative_filter: DerivativeFilterConfig::default(),
-            state_units: ["cm".into(), "cm/s".into()],
-            p0_diag: [0.1, 0.1],
+            state: crate::dekf::StateKind::Sliding,
+            state_units: vec!["cm".into(), "cm/s".into()],
+            p0_diag: vec![0.1, 0.1],
             training: serde_json::json!({"note": "test"}),
             software_version: "0".into(),
         };

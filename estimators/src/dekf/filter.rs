@@ -6,6 +6,8 @@ use super::ekf::{M2, correct, predict};
 use super::infer::FastNet;
 use super::input::DekfInput;
 use super::model::DekfModel;
+use super::multi::MultiFilter;
+use super::state::StateKind;
 
 /// Smallest innovation variance `S` for which the filter corrects; below it
 /// the measurement carries no usable information and the step only predicts.
@@ -19,57 +21,57 @@ pub struct DekfOutput {
     /// The measurement the feature network read, before normalisation
     /// (derivatives in counts/s, or counts for raw models), in model channel order.
     pub measurement: Vec<f64>,
-    /// Mean `(p, v)` (cm, cm/s).
-    pub mean: [f64; 2],
-    /// Covariance (cm^2, cm^2/s, cm^2/s^2).
-    pub cov: M2,
+    /// Mean, `2 dofs` components in the model's state units: `(p, v)` (cm,
+    /// cm/s) for a sliding model, `(x, y, theta, vx, vy, omega)` (cm, cm,
+    /// deg, cm/s, cm/s, deg/s) for a planar one.
+    pub mean: Vec<f64>,
+    /// Covariance, `2 dofs` square, row-major.
+    pub cov: Vec<f64>,
     /// True when the measurement was used (false: prediction only).
     pub corrected: bool,
 }
 
-/// The dEKF with its derivative filter.
+impl DekfOutput {
+    /// Components of the state.
+    pub fn dim(&self) -> usize {
+        self.mean.len()
+    }
+
+    /// Element `(r, c)` of the covariance.
+    pub fn cov_at(&self, r: usize, c: usize) -> f64 {
+        self.cov[r * self.dim() + c]
+    }
+}
+
+/// The dEKF with its derivative filter, for a model of any state.
 pub struct DekfTracker {
-    motion: FastNet,
-    measurement_net: FastNet,
-    feature: FastNet,
-    Q: M2,
-    R: f64,
-    dt: f64,
-    norm_mean: Vec<f32>,
-    norm_std: Vec<f32>,
-    p0: [f64; 2],
     input: DekfInput,
-    mean: [f64; 2],
-    cov: M2,
-    buf: Vec<f32>,
+    filter: Filter,
+}
+
+/// The filter of a model's state: the thesis's with its fast scalar
+/// networks, or the vector filter of [`super::multi`].
+enum Filter {
+    Sliding(Box<SlidingFilter>),
+    Planar(Box<MultiFilter<6, 3>>),
 }
 
 impl DekfTracker {
     /// A tracker for `model`, at `mu0 = 0`, `P0` from the model.
     pub fn new(model: &DekfModel) -> DekfTracker {
-        let l = &model.layout;
-        let (m, s) = model.input_normalisation();
-        let p0 = model.meta.p0_diag;
-        DekfTracker {
-            motion: FastNet::new(&model.params, &l.motion),
-            measurement_net: FastNet::new(&model.params, &l.measurement),
-            feature: FastNet::new(&model.params, &l.feature),
-            Q: model.process_noise(),
-            R: model.measurement_noise(),
-            dt: model.meta.dt_s,
-            norm_mean: m.to_vec(),
-            norm_std: s.to_vec(),
-            p0,
-            input: DekfInput::for_model(model),
-            mean: [0.0; 2],
-            cov: [[p0[0], 0.0], [0.0, p0[1]]],
-            buf: vec![0.0; l.channels],
-        }
+        let filter = match model.state() {
+            StateKind::Sliding => Filter::Sliding(Box::new(SlidingFilter::new(model))),
+            StateKind::Planar => Filter::Planar(Box::new(MultiFilter::new(model))),
+        };
+        DekfTracker { input: DekfInput::for_model(model), filter }
     }
 
-    /// The current mean `(p, v)` (cm, cm/s) and covariance.
-    pub fn state(&self) -> ([f64; 2], M2) {
-        (self.mean, self.cov)
+    /// The current mean and covariance (row-major), in the model's state units.
+    pub fn state(&self) -> (Vec<f64>, Vec<f64>) {
+        match &self.filter {
+            Filter::Sliding(f) => (f.mean.to_vec(), f.cov.iter().flatten().copied().collect()),
+            Filter::Planar(f) => f.state(),
+        }
     }
 
     /// Feeds one tactile scan: baseline-subtracted values (counts) in the
@@ -81,12 +83,67 @@ impl DekfTracker {
     pub fn on_scan(&mut self, t_s: f64, zeroed: &[f64]) -> Option<DekfOutput> {
         let step = self.input.on_scan(t_s, zeroed)?;
         let corrected = if step.index == 0 { false } else { self.step(&step.measurement) };
-        Some(DekfOutput { t_s, measurement: step.measurement, mean: self.mean, cov: self.cov, corrected })
+        let (mean, cov) = self.state();
+        Some(DekfOutput { t_s, measurement: step.measurement, mean, cov, corrected })
     }
 
     /// One dEKF step (prediction over `dt`, correction with `measurement`,
     /// unnormalised, in model channel order). Returns whether it corrected.
     pub fn step(&mut self, measurement: &[f64]) -> bool {
+        match &mut self.filter {
+            Filter::Sliding(f) => f.step(measurement),
+            Filter::Planar(f) => f.step(measurement),
+        }
+    }
+
+    /// Back to `mu0 = 0`, `P0`, with fresh derivative filters.
+    pub fn reset(&mut self) {
+        self.input.reset();
+        match &mut self.filter {
+            Filter::Sliding(f) => f.reset(),
+            Filter::Planar(f) => f.reset(),
+        }
+    }
+}
+
+/// The thesis's filter with the fast scalar networks of [`FastNet`].
+struct SlidingFilter {
+    motion: FastNet,
+    measurement_net: FastNet,
+    feature: FastNet,
+    Q: M2,
+    R: f64,
+    dt: f64,
+    norm_mean: Vec<f32>,
+    norm_std: Vec<f32>,
+    p0: [f64; 2],
+    mean: [f64; 2],
+    cov: M2,
+    buf: Vec<f32>,
+}
+
+impl SlidingFilter {
+    fn new(model: &DekfModel) -> SlidingFilter {
+        let l = &model.layout;
+        let (m, s) = model.input_normalisation();
+        let p0 = [model.meta.p0_diag[0], model.meta.p0_diag[1]];
+        SlidingFilter {
+            motion: FastNet::new(&model.params, &l.motion),
+            measurement_net: FastNet::new(&model.params, &l.measurement),
+            feature: FastNet::new(&model.params, &l.feature),
+            Q: model.process_noise(),
+            R: model.measurement_noise(),
+            dt: model.meta.dt_s,
+            norm_mean: m.to_vec(),
+            norm_std: s.to_vec(),
+            p0,
+            mean: [0.0; 2],
+            cov: [[p0[0], 0.0], [0.0, p0[1]]],
+            buf: vec![0.0; l.channels],
+        }
+    }
+
+    fn step(&mut self, measurement: &[f64]) -> bool {
         let (a, [j0, j1]) = self.motion.value_and_gradient([self.mean[0] as f32, self.mean[1] as f32]);
         let pred =
             predict(self.mean, &self.cov, f64::from(a), [f64::from(j0), f64::from(j1)], self.dt, &self.Q);
@@ -117,9 +174,7 @@ impl DekfTracker {
         true
     }
 
-    /// Back to `mu0 = 0`, `P0`, with fresh derivative filters.
-    pub fn reset(&mut self) {
-        self.input.reset();
+    fn reset(&mut self) {
         self.mean = [0.0; 2];
         self.cov = [[self.p0[0], 0.0], [0.0, self.p0[1]]];
     }

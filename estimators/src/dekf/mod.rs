@@ -10,7 +10,9 @@ mod infer;
 mod input;
 pub mod mlp;
 mod model;
+pub mod multi;
 pub mod params;
+mod state;
 mod train;
 
 pub use bptt::{BatchGrad, Sequence, Window, batch_grad};
@@ -18,6 +20,7 @@ pub use filter::{DekfOutput, DekfTracker, MIN_INNOVATION_VAR};
 pub use input::{DekfInput, InputStep};
 pub use model::{DekfModel, Measurement, ModelMeta};
 pub use params::{Activation, Architecture};
+pub use state::StateKind;
 pub use train::{
     Batching, EpochReport, Progress, Selection, Stage, TrainConfig, train, train_with_selection,
 };

@@ -1,9 +1,11 @@
 //! A dEKF model: the learned parameters and what is needed to use them.
 
+use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 use super::ekf::{M2, q_from_cholesky};
 use super::params::{Architecture, Layout};
+use super::state::StateKind;
 use crate::derivative::DerivativeFilterConfig;
 
 /// What the feature network reads.
@@ -41,10 +43,14 @@ pub struct ModelMeta {
     pub measurement: Measurement,
     /// The derivative filter that makes the measurement.
     pub derivative_filter: DerivativeFilterConfig,
-    /// Units of the state `(p, v)`.
-    pub state_units: [String; 2],
-    /// Initial covariance `P0 = diag(..)` (cm^2, cm^2/s^2).
-    pub p0_diag: [f64; 2],
+    /// The state the model tracks; a file without it holds a sliding model.
+    #[serde(default, skip_serializing_if = "StateKind::is_sliding")]
+    pub state: StateKind,
+    /// Units of the state's components (`cm`, `cm/s` for sliding).
+    pub state_units: Vec<String>,
+    /// Initial covariance `P0 = diag(..)`, one value per state component
+    /// (cm^2, cm^2/s^2; deg^2, deg^2/s^2 for planar rotations).
+    pub p0_diag: Vec<f64>,
     /// How the model was trained (configuration, data, losses), free-form JSON.
     pub training: serde_json::Value,
     /// The slidetrack version that wrote the model.
@@ -68,9 +74,10 @@ impl DekfModel {
         DekfModel::with_architecture(meta, &Architecture::default(), rng)
     }
 
-    /// A fresh (untrained) model with networks of `arch`.
+    /// A fresh (untrained) model with networks of `arch`, for the state
+    /// `meta.state`.
     pub fn with_architecture(meta: ModelMeta, arch: &Architecture, rng: &mut impl rand::Rng) -> DekfModel {
-        let layout = Layout::with_architecture(meta.channels.len(), arch);
+        let layout = Layout::for_state(meta.state, meta.channels.len(), arch);
         let params = layout.init(rng);
         DekfModel { layout, params, meta }
     }
@@ -80,17 +87,51 @@ impl DekfModel {
         &self.layout.architecture
     }
 
-    /// `Q = L_Q L_Q^T` (cm^2, cm^2/s^2).
+    /// The state the model tracks.
+    pub fn state(&self) -> StateKind {
+        self.layout.state
+    }
+
+    /// `Q = L_Q L_Q^T` of a sliding model (cm^2, cm^2/s^2).
     pub fn process_noise(&self) -> M2 {
         let o = self.layout.process_noise;
         let p = &self.params;
         q_from_cholesky(f64::from(p[o]), f64::from(p[o + 2]), f64::from(p[o + 3]))
     }
 
-    /// `R = L_R^2`.
+    /// `R = L_R^2` of a sliding model.
     pub fn measurement_noise(&self) -> f64 {
         let l = f64::from(self.params[self.layout.measurement_noise]);
         l * l
+    }
+
+    /// The lower-triangular factor stored row-major at `offset`, `k x k`.
+    fn cholesky_factor(&self, offset: usize, k: usize) -> DMatrix<f64> {
+        DMatrix::from_fn(k, k, |r, c| if c <= r { f64::from(self.params[offset + r * k + c]) } else { 0.0 })
+    }
+
+    /// `L_Q` of any state (`2 dofs` square).
+    pub fn process_noise_factor(&self) -> DMatrix<f64> {
+        let n = self.state().dim();
+        self.cholesky_factor(self.layout.process_noise, n)
+    }
+
+    /// `L_R` of any state (`dofs` square).
+    pub fn measurement_noise_factor(&self) -> DMatrix<f64> {
+        let m = self.state().dofs();
+        self.cholesky_factor(self.layout.measurement_noise, m)
+    }
+
+    /// `Q = L_Q L_Q^T` of any state.
+    pub fn process_noise_matrix(&self) -> DMatrix<f64> {
+        let l = self.process_noise_factor();
+        &l * l.transpose()
+    }
+
+    /// `R = L_R L_R^T` of any state.
+    pub fn measurement_noise_matrix(&self) -> DMatrix<f64> {
+        let l = self.measurement_noise_factor();
+        &l * l.transpose()
     }
 
     /// The feature normalisation: `(mean, std)` per channel.

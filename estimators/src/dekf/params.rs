@@ -6,6 +6,8 @@
 use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
+use super::state::StateKind;
+
 /// Width of every hidden layer of the thesis's networks (Sec. 6.1.6).
 pub const HIDDEN: usize = 64;
 
@@ -168,7 +170,7 @@ impl NetAt {
         &self.layers[3]
     }
 
-    /// `shared.out`, `[1, width]`.
+    /// `shared.out`, `[outputs, width]`.
     pub fn out(&self) -> &LinearAt {
         &self.layers[self.layers.len() - 1]
     }
@@ -190,9 +192,9 @@ pub struct Layout {
     pub measurement: NetAt,
     /// NN3, the feature network (input: the normalised tactile measurement).
     pub feature: NetAt,
-    /// `process_noise.cholesky`, `[2, 2]` (lower triangle used).
+    /// `process_noise.cholesky`, `[2 dofs, 2 dofs]` (lower triangle used).
     pub process_noise: usize,
-    /// `measurement_noise.cholesky`, `[1, 1]`.
+    /// `measurement_noise.cholesky`, `[dofs, dofs]` (lower triangle used).
     pub measurement_noise: usize,
     /// `feature.input_mean`, `[channels]`.
     pub input_mean: usize,
@@ -202,6 +204,8 @@ pub struct Layout {
     pub channels: usize,
     /// Width, depth and activation of the networks.
     pub architecture: Architecture,
+    /// The state the networks read and predict.
+    pub state: StateKind,
     /// Length of the flat vector.
     pub len: usize,
 }
@@ -226,7 +230,7 @@ impl Builder {
         LinearAt { weight, bias, out, inp }
     }
 
-    fn net(&mut self, name: &str, inp: usize, arch: &Architecture) -> NetAt {
+    fn net(&mut self, name: &str, inp: usize, out: usize, arch: &Architecture) -> NetAt {
         let h = arch.width;
         let mut layers = vec![
             self.linear(&format!("{name}.encoder.linear"), h, inp),
@@ -238,7 +242,7 @@ impl Builder {
             layers.push(self.linear(&format!("{name}.shared.residual.{k}.fc1"), h, h));
             layers.push(self.linear(&format!("{name}.shared.residual.{k}.fc2"), h, h));
         }
-        layers.push(self.linear(&format!("{name}.shared.out"), 1, h));
+        layers.push(self.linear(&format!("{name}.shared.out"), out, h));
         NetAt { layers, activation: arch.activation }
     }
 }
@@ -250,17 +254,28 @@ impl Layout {
         Layout::with_architecture(channels, &Architecture::default())
     }
 
-    /// The layout of a model with networks of `arch` whose feature network
-    /// reads `channels` inputs.
+    /// The layout of a sliding model with networks of `arch` whose feature
+    /// network reads `channels` inputs.
     pub fn with_architecture(channels: usize, arch: &Architecture) -> Layout {
+        Layout::for_state(StateKind::Sliding, channels, arch)
+    }
+
+    /// The layout of a model of `state` with networks of `arch` whose
+    /// feature network reads `channels` inputs: NN1 and NN2 read the state
+    /// (`2 dofs`) and output `dofs` values (accelerations, expected
+    /// features), NN3 maps the channels to `dofs` features. A sliding
+    /// model's tensors are the thesis's, named and shaped as before planar
+    /// models existed.
+    pub fn for_state(state: StateKind, channels: usize, arch: &Architecture) -> Layout {
+        let (n, m) = (state.dim(), state.dofs());
         let mut b = Builder { entries: Vec::new(), len: 0 };
-        let motion = b.net("motion", 2, arch);
-        let measurement = b.net("measurement", 2, arch);
-        let feature = b.net("feature", channels, arch);
+        let motion = b.net("motion", n, m, arch);
+        let measurement = b.net("measurement", n, m, arch);
+        let feature = b.net("feature", channels, m, arch);
         let input_mean = b.add("feature.input_mean".into(), vec![channels], false);
         let input_std = b.add("feature.input_std".into(), vec![channels], false);
-        let process_noise = b.add("process_noise.cholesky".into(), vec![2, 2], true);
-        let measurement_noise = b.add("measurement_noise.cholesky".into(), vec![1, 1], true);
+        let process_noise = b.add("process_noise.cholesky".into(), vec![n, n], true);
+        let measurement_noise = b.add("measurement_noise.cholesky".into(), vec![m, m], true);
         Layout {
             entries: b.entries,
             motion,
@@ -272,6 +287,7 @@ impl Layout {
             input_std,
             channels,
             architecture: *arch,
+            state,
             len: b.len,
         }
     }
@@ -282,8 +298,9 @@ impl Layout {
     }
 
     /// Fresh parameters: PyTorch's default initialisation of linear layers
-    /// (weights and biases uniform in `±1/sqrt(in)`); `L_Q = diag(0.1, 0.3)`,
-    /// `L_R = 1`; input normalisation mean 0, std 1.
+    /// (weights and biases uniform in `±1/sqrt(in)`); `L_Q = diag(0.1, 0.3)`
+    /// (0.1 for every position, 0.3 for every rate), `L_R = I`; input
+    /// normalisation mean 0, std 1.
     pub fn init(&self, rng: &mut impl Rng) -> Vec<f32> {
         let mut p = vec![0.0f32; self.len];
         for net in [&self.motion, &self.measurement, &self.feature] {
@@ -297,17 +314,22 @@ impl Layout {
                 }
             }
         }
-        p[self.process_noise] = 0.1;
-        p[self.process_noise + 3] = 0.3;
-        p[self.measurement_noise] = 1.0;
+        let (n, m) = (self.state.dim(), self.state.dofs());
+        for i in 0..n {
+            p[self.process_noise + i * n + i] = if i < m { 0.1 } else { 0.3 };
+        }
+        for i in 0..m {
+            p[self.measurement_noise + i * m + i] = 1.0;
+        }
         for v in &mut p[self.input_std..self.input_std + self.channels] {
             *v = 1.0;
         }
         p
     }
 
-    /// A mask of the trainable elements of the flat vector (the upper triangle
-    /// of `process_noise.cholesky` is not trained: `L_Q` is lower-triangular).
+    /// A mask of the trainable elements of the flat vector (the upper
+    /// triangles of `process_noise.cholesky` and `measurement_noise.cholesky`
+    /// are not trained: `L_Q` and `L_R` are lower-triangular).
     pub fn trainable_mask(&self) -> Vec<bool> {
         let mut mask = vec![false; self.len];
         for e in &self.entries {
@@ -315,8 +337,19 @@ impl Layout {
                 mask[e.range()].iter_mut().for_each(|m| *m = true);
             }
         }
-        mask[self.process_noise + 1] = false;
+        for i in self.upper_triangles() {
+            mask[i] = false;
+        }
         mask
+    }
+
+    /// The elements above the diagonal of the two Cholesky factors (stored
+    /// row-major, `[row, column]`), which are zero.
+    pub fn upper_triangles(&self) -> Vec<usize> {
+        let (n, m) = (self.state.dim(), self.state.dofs());
+        let upper =
+            |offset: usize, k: usize| (0..k).flat_map(move |r| (r + 1..k).map(move |c| offset + r * k + c));
+        upper(self.process_noise, n).chain(upper(self.measurement_noise, m)).collect()
     }
 }
 

@@ -16,8 +16,9 @@ fn meta(channels: usize) -> ModelMeta {
         channels: (0..channels).map(|c| format!("ch{c}")).collect(),
         measurement: Measurement::Derivative,
         derivative_filter: DerivativeFilterConfig::default(),
-        state_units: ["cm".into(), "cm/s".into()],
-        p0_diag: [0.1, 0.1],
+        state: StateKind::Sliding,
+        state_units: vec!["cm".into(), "cm/s".into()],
+        p0_diag: vec![0.1, 0.1],
         training: serde_json::Value::Null,
         software_version: "test".into(),
     }
@@ -37,7 +38,7 @@ fn synthetic(len: usize, seed: u64) -> Sequence {
         meas.extend([(2.0 * v + noise.sample(&mut rng)) as f32, (-v + noise.sample(&mut rng)) as f32]);
         valid.push(t % 17 != 5);
     }
-    Sequence { measurements: meas, valid, truth }
+    Sequence::sliding(meas, valid, &truth)
 }
 
 /// The model's loss gradient (every network, both noise models) against
@@ -61,8 +62,8 @@ fn gradients_match_finite_differences_of_the_loss() {
             let mut window = |position_shift: f64| Window {
                 sequence: rng.random_range(0..2),
                 start: rng.random_range(0..30),
-                mean0: [rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)],
-                position_shift,
+                mean0: vec![rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)],
+                position_shift: vec![position_shift],
             };
             let windows = [window(0.0), window(1.5), window(-0.7)];
             let length = 4;
@@ -222,7 +223,7 @@ fn a_dekf_whose_networks_output_zero_is_the_constant_velocity_ekf() {
             cases.push((linear, Some(([0.125, 0.5], 0.125 * -1.5 + 0.5 * 0.25 - 0.5))));
         }
         for (model, measurement) in cases {
-            let (q, r, p0) = (model.process_noise(), model.measurement_noise(), model.meta.p0_diag);
+            let (q, r, p0) = (model.process_noise(), model.measurement_noise(), model.meta.p0_diag.clone());
             let p0 = [[p0[0], 0.0], [0.0, p0[1]]];
             // Online, from mu0 = 0.
             let expected = constant_velocity_ekf([0.0; 2], p0, 0.03, q, r, measurement, &zs);
@@ -231,9 +232,7 @@ fn a_dekf_whose_networks_output_zero_is_the_constant_velocity_ekf() {
                 let m = &seq.measurements[2 * (t + 1)..2 * (t + 2)];
                 tracker.step(&[f64::from(m[0]), f64::from(m[1])]);
                 let (mean, cov) = tracker.state();
-                for (got, want) in
-                    mean.iter().chain(cov.iter().flatten()).zip(x.iter().chain(p.iter().flatten()))
-                {
+                for (got, want) in mean.iter().chain(cov.iter()).zip(x.iter().chain(p.iter().flatten())) {
                     assert!(
                         (got - want).abs() < 1e-5 * (1.0 + want.abs()),
                         "{arch:?} step {t}: {got} vs {want}"
@@ -245,10 +244,10 @@ fn a_dekf_whose_networks_output_zero_is_the_constant_velocity_ekf() {
             let expected = constant_velocity_ekf(mean0, p0, 0.03, q, r, measurement, &zs[9..]);
             let mut s = seq.clone();
             for (k, (x, _)) in expected.iter().enumerate() {
-                s.truth[10 + k] = *x;
+                s.truth[2 * (10 + k)..2 * (11 + k)].copy_from_slice(x);
                 s.valid[10 + k] = true;
             }
-            let w = Window { sequence: 0, start: 9, mean0, position_shift: 0.0 };
+            let w = Window { sequence: 0, start: 9, mean0: mean0.to_vec(), position_shift: vec![0.0] };
             let g = batch_grad(&model, &[s], &[w], expected.len());
             assert!(g.squared_error < 1e-8, "{arch:?}: squared error {} against the CV-EKF", g.squared_error);
         }
@@ -268,13 +267,13 @@ fn the_online_filter_follows_the_training_path() {
         let raw: Vec<f64> =
             if seq.valid[t] { m.iter().map(|v| f64::from(*v)).collect() } else { vec![f64::NAN; 2] };
         tracker.step(&raw);
-        seq.truth[t] = tracker.state().0;
+        seq.truth[2 * t..2 * t + 2].copy_from_slice(&tracker.state().0);
     }
     let data = vec![seq];
     let g = batch_grad(
         &model,
         &data,
-        &[Window { sequence: 0, start: 0, mean0: [0.0, 0.0], position_shift: 0.0 }],
+        &[Window { sequence: 0, start: 0, mean0: vec![0.0, 0.0], position_shift: vec![0.0] }],
         29,
     );
     assert!(g.squared_error < 1e-8, "squared error {}", g.squared_error);
@@ -303,8 +302,8 @@ fn training_learns_the_synthetic_slide() {
         let m = &test.measurements[2 * t..2 * t + 2];
         tracker.step(&[f64::from(m[0]), f64::from(m[1])]);
         let v = tracker.state().0[1];
-        se += (v - test.truth[t][1]).powi(2);
-        base += test.truth[t][1].powi(2);
+        se += (v - test.truth_at(t)[1]).powi(2);
+        base += test.truth_at(t)[1].powi(2);
     }
     assert!(se < 0.25 * base, "velocity error {se} vs zero-velocity baseline {base}");
 }
@@ -368,9 +367,7 @@ fn nan_in_the_tactile_stream_is_skipped_never_propagated() {
         let t = k as f64 * 0.01;
         let v = if (100..130).contains(&k) { [f64::NAN, 5.0] } else { [100.0 * t, -50.0 * t] };
         if let Some(out) = tracker.on_scan(t, &v) {
-            assert!(
-                out.mean.iter().all(|x| x.is_finite()) && out.cov.iter().flatten().all(|x| x.is_finite())
-            );
+            assert!(out.mean.iter().all(|x| x.is_finite()) && out.cov.iter().all(|x| x.is_finite()));
             assert!(
                 out.measurement.iter().all(|x| x.is_finite()),
                 "the derivative filter predicts through NaN"

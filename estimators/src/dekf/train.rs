@@ -243,26 +243,35 @@ fn batch_windows(
     chunk: &[(usize, usize)],
     data: &[Sequence],
     cfg: &TrainConfig,
-    p0: [f64; 2],
+    p0: &[f64],
     rng: &mut ChaCha8Rng,
 ) -> Vec<Window> {
+    let dim = p0.len();
+    let dofs = dim / 2;
     chunk
         .iter()
         .map(|&(sequence, start)| {
-            let truth = data[sequence].truth[start];
-            let n0: f64 = StandardNormal.sample(rng);
-            let n1: f64 = StandardNormal.sample(rng);
-            let shift = if cfg.position_shift_cm > 0.0 {
-                rng.random_range(-cfg.position_shift_cm..=cfg.position_shift_cm)
-            } else {
-                0.0
-            };
-            Window {
-                sequence,
-                start,
-                mean0: [truth[0] + shift + n0 * p0[0].sqrt(), truth[1] + n1 * p0[1].sqrt()],
-                position_shift: shift,
-            }
+            let truth = data[sequence].truth_at(start);
+            // One draw per component, then one shift per degree of freedom
+            // (for a sliding state: n0, n1, shift, the order of the thesis's
+            // one-dimensional training, so its models stay what they were).
+            let noise: Vec<f64> = (0..dim).map(|_| StandardNormal.sample(rng)).collect();
+            let position_shift: Vec<f64> = (0..dofs)
+                .map(|_| {
+                    if cfg.position_shift_cm > 0.0 {
+                        rng.random_range(-cfg.position_shift_cm..=cfg.position_shift_cm)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let mean0 = (0..dim)
+                .map(|i| {
+                    let shifted = if i < dofs { truth[i] + position_shift[i] } else { truth[i] };
+                    shifted + noise[i] * p0[i].sqrt()
+                })
+                .collect();
+            Window { sequence, start, mean0, position_shift }
         })
         .collect()
 }
@@ -304,7 +313,8 @@ pub fn train_with_selection(
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let mask = model.layout.trainable_mask();
     let mut adam = Adam { m: vec![0.0; model.params.len()], v: vec![0.0; model.params.len()], t: 0 };
-    let p0 = model.meta.p0_diag;
+    let p0 = model.meta.p0_diag.clone();
+    let dim = model.state().dim();
     let total_batches: usize = cfg
         .schedule
         .iter()
@@ -320,10 +330,10 @@ pub fn train_with_selection(
             let batches = grouped.len();
             let (mut sq, mut states, mut skipped) = ([0.0f64; 2], 0usize, 0usize);
             for (b, chunk) in grouped.iter().enumerate() {
-                let batch = batch_windows(chunk, data, cfg, p0, &mut rng);
+                let batch = batch_windows(chunk, data, cfg, &p0, &mut rng);
                 let mut g = parallel_grad(model, data, &batch, st.length, pool.as_ref());
                 // Loss (2.149): mean over steps, batch and state components.
-                let scale = 1.0 / (st.length * batch.len() * 2) as f64;
+                let scale = 1.0 / (st.length * batch.len() * dim) as f64;
                 let norm: f64 =
                     g.grad.iter().map(|x| f64::from(*x) * f64::from(*x)).sum::<f64>().sqrt() * scale;
                 if !(g.squared_error.is_finite() && norm.is_finite()) {
@@ -354,7 +364,7 @@ pub fn train_with_selection(
             reports.push(EpochReport {
                 length: st.length,
                 epoch: reports.len() + 1,
-                loss: (sq[0] + sq[1]) / (2.0 * n),
+                loss: (sq[0] + sq[1]) / (dim as f64 * n),
                 rmse: [(sq[0] / n).sqrt(), (sq[1] / n).sqrt()],
                 skipped_batches: skipped,
                 selection_score: None,
