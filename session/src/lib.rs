@@ -14,6 +14,7 @@ mod csv;
 mod error;
 pub mod estimates;
 pub mod ground_truth;
+pub mod in_hand;
 mod live;
 pub mod messages;
 mod metadata;
@@ -40,6 +41,9 @@ pub use estimates::{
     ArucoEstimate, DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate, TactileDerivative,
 };
 pub use ground_truth::{GroundTruthMeasurement, GroundTruthParameters, GroundTruthSliding};
+pub use in_hand::{
+    GraspStateName, GroundTruthPlanar, GroundTruthPose, PlanarEstimate, PlanarState, SlipEstimate,
+};
 pub use live::{LiveChannel, LiveReceiver, LiveRecord, LiveTap, LiveTapStats, TapClosed};
 pub use messages::{
     ChannelMessage, ChannelSpec, FingerSetpoint, GraspControl, GripperCommand, GripperState, HandCommand,
