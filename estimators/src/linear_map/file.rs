@@ -1,0 +1,241 @@
+//! The map file: safetensors, all tensors `F64` and row-major, names and
+//! settings as JSON strings in the header. Bytes in, bytes out.
+//!
+//! | tensor                | shape               | holds                                    |
+//! |-----------------------|---------------------|------------------------------------------|
+//! | `linear.weight`       | `[outputs, inputs]` | `W'`: `y = W' x + b` in the input units  |
+//! | `linear.bias`         | `[outputs]`         | `b`                                      |
+//! | `standardised.weight` | `[outputs, inputs]` | `W`, on standardised inputs (as fitted)  |
+//! | `input_mean`          | `[inputs]`          | `μ`                                      |
+//! | `input_std`           | `[inputs]`          | `σ`, positive                            |
+//! | `output_mean`         | `[outputs]`         | `ȳ`                                      |
+//!
+//! Any tool can apply `linear.*` alone. `standardised.weight` is what
+//! slidetrack applies, kept so that a map read back is the map written, bit
+//! for bit (`W'·σ` need not round back to `W`); reading checks that the two
+//! agree. Metadata keys: [`FORMAT_KEY`] (= [`FORMAT`]), `input_names`,
+//! `output_names` (JSON arrays of strings), `lambda` (JSON array, one penalty
+//! per output), `meta` (JSON). The header's keys are sorted, so the same map
+//! gives the same bytes.
+
+use std::collections::HashMap;
+
+use nalgebra::DMatrix;
+use safetensors::tensor::{Dtype, SafeTensors, TensorView};
+
+use super::{LinearMap, LinearMapError};
+
+/// Metadata key holding the format version.
+pub const FORMAT_KEY: &str = "format";
+/// The format written.
+pub const FORMAT: &str = "slidetrack-linear-1";
+
+const INPUT_NAMES: &str = "input_names";
+const OUTPUT_NAMES: &str = "output_names";
+const LAMBDA: &str = "lambda";
+const META: &str = "meta";
+
+const WEIGHT: &str = "linear.weight";
+const BIAS: &str = "linear.bias";
+const STANDARDISED_WEIGHT: &str = "standardised.weight";
+const INPUT_MEAN: &str = "input_mean";
+const INPUT_STD: &str = "input_std";
+const OUTPUT_MEAN: &str = "output_mean";
+
+/// Row-major values of an `[outputs, inputs]` matrix.
+fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
+    m.transpose().as_slice().to_vec()
+}
+
+fn le_bytes(values: &[f64]) -> Vec<u8> {
+    values.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+impl LinearMap {
+    /// The map as safetensors bytes (format in the [module docs](self)).
+    ///
+    /// # Errors
+    /// Only if safetensors refuses the tensors (a bug).
+    pub fn to_bytes(&self) -> Result<Vec<u8>, LinearMapError> {
+        let (p, q) = (self.inputs(), self.outputs());
+        let (w, b) = self.affine();
+        let tensors: Vec<(&str, Vec<usize>, Vec<u8>)> = vec![
+            (WEIGHT, vec![q, p], le_bytes(&row_major(&w))),
+            (BIAS, vec![q], le_bytes(b.as_slice())),
+            (STANDARDISED_WEIGHT, vec![q, p], le_bytes(&row_major(&self.weights))),
+            (INPUT_MEAN, vec![p], le_bytes(&self.input_mean)),
+            (INPUT_STD, vec![p], le_bytes(&self.input_std)),
+            (OUTPUT_MEAN, vec![q], le_bytes(&self.output_mean)),
+        ];
+        let views = tensors
+            .iter()
+            .map(|(name, shape, bytes)| Ok((*name, TensorView::new(Dtype::F64, shape.clone(), bytes)?)))
+            .collect::<Result<Vec<_>, safetensors::SafeTensorError>>()?;
+        let json = |key: &'static str, value: serde_json::Result<String>| {
+            value
+                .map(|v| (key.to_string(), v))
+                .map_err(|e| LinearMapError::Metadata { key, detail: e.to_string() })
+        };
+        let info = HashMap::from([
+            (FORMAT_KEY.to_string(), FORMAT.to_string()),
+            json(INPUT_NAMES, serde_json::to_string(&self.input_names))?,
+            json(OUTPUT_NAMES, serde_json::to_string(&self.output_names))?,
+            json(LAMBDA, serde_json::to_string(&self.lambda))?,
+            json(META, serde_json::to_string(&self.meta))?,
+        ]);
+        Ok(with_sorted_header(safetensors::serialize(views, Some(info))?))
+    }
+
+    /// A map from bytes written by [`LinearMap::to_bytes`] (or by any tool
+    /// following the format in the [module docs](self)).
+    ///
+    /// # Errors
+    /// Not safetensors; a metadata entry missing or wrong (which key, what);
+    /// a tensor missing, not `F64`, of the wrong shape, holding NaN or
+    /// infinity, a non-positive `input_std`, or `linear.*` disagreeing with
+    /// the standardised form (which tensor, what).
+    pub fn from_bytes(bytes: &[u8]) -> Result<LinearMap, LinearMapError> {
+        let st = SafeTensors::deserialize(bytes)?;
+        let (_, header) = SafeTensors::read_metadata(bytes)?;
+        let empty = HashMap::new();
+        let metadata = header.metadata().as_ref().unwrap_or(&empty);
+        let entry = |key: &'static str| {
+            metadata.get(key).ok_or(LinearMapError::Metadata { key, detail: "not in the header".into() })
+        };
+        let format = entry(FORMAT_KEY)?;
+        if format != FORMAT {
+            return Err(LinearMapError::Metadata {
+                key: FORMAT_KEY,
+                detail: format!("`{format}`, expected `{FORMAT}`"),
+            });
+        }
+        let input_names = names(INPUT_NAMES, "input", entry(INPUT_NAMES)?)?;
+        let output_names = names(OUTPUT_NAMES, "output", entry(OUTPUT_NAMES)?)?;
+        let (p, q) = (input_names.len(), output_names.len());
+        let lambda: Vec<f64> = parse(LAMBDA, entry(LAMBDA)?)?;
+        if lambda.len() != q || lambda.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
+            return Err(LinearMapError::Metadata {
+                key: LAMBDA,
+                detail: format!("{lambda:?}: expected {q} finite positive penalties"),
+            });
+        }
+        let meta = parse(META, entry(META)?)?;
+        let input_std = tensor(&st, INPUT_STD, &[p])?;
+        if let Some(s) = input_std.iter().find(|s| **s <= 0.0) {
+            return Err(LinearMapError::Tensor {
+                name: INPUT_STD,
+                detail: format!("holds {s}, must be positive"),
+            });
+        }
+        let weights = tensor(&st, STANDARDISED_WEIGHT, &[q, p])?;
+        let map = LinearMap {
+            input_names,
+            output_names,
+            input_mean: tensor(&st, INPUT_MEAN, &[p])?,
+            input_std,
+            output_mean: tensor(&st, OUTPUT_MEAN, &[q])?,
+            weights: DMatrix::from_row_slice(q, p, &weights),
+            lambda,
+            meta,
+        };
+        map.check_affine(&tensor(&st, WEIGHT, &[q, p])?, &tensor(&st, BIAS, &[q])?)?;
+        Ok(map)
+    }
+
+    /// Checks that the file's `linear.weight` and `linear.bias` are this
+    /// map's [`LinearMap::affine`] (up to a writer's rounding, 1e-9).
+    fn check_affine(&self, weight: &[f64], bias: &[f64]) -> Result<(), LinearMapError> {
+        let (w, b) = self.affine();
+        for ((o, i), expected) in
+            (0..self.outputs()).flat_map(|o| (0..self.inputs()).map(move |i| (o, i))).zip(weight)
+        {
+            let got = w[(o, i)];
+            if (got - expected).abs() > 1e-9 * got.abs().max(expected.abs()) {
+                return Err(LinearMapError::Tensor {
+                    name: WEIGHT,
+                    detail: format!(
+                        "[{o}, {i}] = {expected}, but standardised.weight / input_std gives {got}"
+                    ),
+                });
+            }
+        }
+        for (o, expected) in bias.iter().enumerate() {
+            let scale = self.output_mean[o].abs()
+                + (0..self.inputs()).map(|i| (w[(o, i)] * self.input_mean[i]).abs()).sum::<f64>();
+            if (b[o] - expected).abs() > 1e-9 * scale {
+                return Err(LinearMapError::Tensor {
+                    name: BIAS,
+                    detail: format!("[{o}] = {expected}, but the standardised form gives {}", b[o]),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+fn parse<T: serde::de::DeserializeOwned>(key: &'static str, json: &str) -> Result<T, LinearMapError> {
+    serde_json::from_str(json).map_err(|e| LinearMapError::Metadata { key, detail: e.to_string() })
+}
+
+fn names(key: &'static str, what: &'static str, json: &str) -> Result<Vec<String>, LinearMapError> {
+    let names: Vec<String> = parse(key, json)?;
+    super::fit::names(what, &names).map_err(|e| LinearMapError::Metadata { key, detail: e.to_string() })
+}
+
+/// The values of the `F64` tensor `name` of shape `shape`, all finite.
+fn tensor(st: &SafeTensors<'_>, name: &'static str, shape: &[usize]) -> Result<Vec<f64>, LinearMapError> {
+    let bad = |detail: String| LinearMapError::Tensor { name, detail };
+    let t = st.tensor(name).map_err(|_| bad("missing".into()))?;
+    if t.dtype() != Dtype::F64 {
+        return Err(bad(format!("dtype {:?}, expected F64", t.dtype())));
+    }
+    if t.shape() != shape {
+        return Err(bad(format!("shape {:?}, expected {shape:?}", t.shape())));
+    }
+    let values: Vec<f64> = t
+        .data()
+        .chunks_exact(8)
+        .map(|b| <[u8; 8]>::try_from(b).map_or(f64::NAN, f64::from_le_bytes))
+        .collect();
+    if let Some(at) = values.iter().position(|x| !x.is_finite()) {
+        return Err(bad(format!("element {at} is {}", values[at])));
+    }
+    Ok(values)
+}
+
+/// `bytes` with the keys of its safetensors header in sorted order (as in
+/// `dekf::file`): safetensors writes the metadata from a `HashMap`, whose
+/// order changes from process to process; sorted, the same map gives the
+/// same bytes. The header keeps its length (padded with spaces, as the
+/// format allows).
+fn with_sorted_header(bytes: Vec<u8>) -> Vec<u8> {
+    fn sorted(v: serde_json::Value) -> serde_json::Value {
+        match v {
+            serde_json::Value::Object(m) => {
+                let mut entries: Vec<_> = m.into_iter().collect();
+                entries.sort_by(|a, b| a.0.cmp(&b.0));
+                serde_json::Value::Object(entries.into_iter().map(|(k, v)| (k, sorted(v))).collect())
+            }
+            other => other,
+        }
+    }
+    let Some(n) = bytes.get(..8).and_then(|b| b.try_into().ok()).map(u64::from_le_bytes) else {
+        return bytes;
+    };
+    let Some(header) = usize::try_from(n).ok().and_then(|n| bytes.get(8..8 + n)) else {
+        return bytes;
+    };
+    let Ok(value) = serde_json::from_slice::<serde_json::Value>(header) else {
+        return bytes;
+    };
+    let Ok(mut json) = serde_json::to_vec(&sorted(value)) else {
+        return bytes;
+    };
+    if json.len() > header.len() {
+        return bytes;
+    }
+    json.resize(header.len(), b' ');
+    let mut out = bytes;
+    out[8..8 + json.len()].copy_from_slice(&json);
+    out
+}
