@@ -9,9 +9,10 @@ use serde::Deserialize;
 use crate::channels::recorded_tactile;
 use slidetrack_calibration::label::GroundTruthSlot;
 use slidetrack_core::{TactileInfo, TimeNs};
+use slidetrack_estimators::dekf::StateKind;
 use slidetrack_session::{
-    ChannelMessage, MessageReader, ProtocolEvent, ReadOptions, SessionInfo, TactileRaw, TactileZeroed,
-    scan_of,
+    ChannelMessage, GroundTruthPlanar, MessageReader, PlanarState, ProtocolEvent, ReadOptions, SessionInfo,
+    TactileRaw, TactileZeroed, scan_of,
 };
 
 /// Topic of the ground truth written by `slidetrack label`.
@@ -75,6 +76,9 @@ pub const THESIS_GROUND_TRUTH_TOPIC: &str = GroundTruthSlot::Thesis.sliding_topi
 /// Which truth to train and score against.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TruthSource {
+    /// `/ground_truth/planar` from `slidetrack label`: the object's motion in
+    /// the contact plane during the hold (the truth of planar models).
+    Planar,
     /// `/ground_truth/sliding` from `slidetrack label` (the marker smoothed
     /// as thesis Sec. 6.2.3 describes, with this project's parameters).
     GroundTruth,
@@ -89,6 +93,7 @@ impl TruthSource {
     /// The topic it reads.
     pub fn topic(self) -> &'static str {
         match self {
+            TruthSource::Planar => GroundTruthPlanar::TOPIC,
             TruthSource::GroundTruth => GROUND_TRUTH_TOPIC,
             TruthSource::ThesisGroundTruth => THESIS_GROUND_TRUTH_TOPIC,
             TruthSource::Sim => SIM_TRUTH_TOPIC,
@@ -99,12 +104,44 @@ impl TruthSource {
     pub fn is_labelled(self) -> bool {
         self != TruthSource::Sim
     }
+
+    /// Components of one truth sample: `(p, v)` along the sliding axis, or
+    /// the planar state `(x, y, theta, vx, vy, omega)`.
+    pub fn dim(self) -> usize {
+        if self == TruthSource::Planar { 6 } else { 2 }
+    }
+
+    /// The truth of models of `state`: `/ground_truth/planar` for planar
+    /// models, else `self`.
+    pub fn for_state(self, state: StateKind) -> TruthSource {
+        match state {
+            StateKind::Planar => TruthSource::Planar,
+            StateKind::Sliding => self,
+        }
+    }
 }
 
 #[derive(Deserialize)]
 struct PositionVelocity {
     position: f64,
     velocity: f64,
+}
+
+/// One truth sample in SI units: `(p, v)` (m, m/s) or the planar state
+/// `(x, y, theta, vx, vy, omega)` (m, m, rad, m/s, m/s, rad/s).
+fn truth_values(source: TruthSource, data: &[u8]) -> serde_json::Result<Vec<f64>> {
+    if source == TruthSource::Planar {
+        let PlanarState {
+            translation_m: [x, y],
+            rotation_rad,
+            velocity_m_per_s: [vx, vy],
+            angular_velocity_rad_per_s,
+        } = serde_json::from_slice::<GroundTruthPlanar>(data)?.0;
+        Ok(vec![x, y, rotation_rad, vx, vy, angular_velocity_rad_per_s])
+    } else {
+        let r: PositionVelocity = serde_json::from_slice(data)?;
+        Ok(vec![r.position, r.velocity])
+    }
 }
 
 /// One session's data at the tactile rate, from the first baseline-subtracted
@@ -120,8 +157,12 @@ pub struct SessionData {
     /// Baseline-subtracted values of every taxel of every scan (counts),
     /// scan after scan, `tactile.layout.taxel_count()` taxels each.
     pub zeroed: Vec<[f64; 3]>,
-    /// Truth per scan, `(p, v)` (m, m/s), when the session has it.
-    pub truth: Option<Vec<[f64; 2]>>,
+    /// Truth per scan, [`TruthSource::dim`] components each in SI units
+    /// (`(p, v)` in m and m/s; planar: m, rad, m/s, rad/s), scan after
+    /// scan, when the session has it.
+    pub truth: Option<Vec<f64>>,
+    /// Components of one truth sample.
+    pub truth_dim: usize,
     /// The tactile scan rate (Hz), from the scan times.
     pub rate_hz: f64,
 }
@@ -133,14 +174,14 @@ struct Recorded {
     tactile: Option<TactileInfo>,
     times: Vec<TimeNs>,
     zeroed: Vec<[f64; 3]>,
-    truth: Vec<(TimeNs, [f64; 2])>,
+    truth: Vec<(TimeNs, Vec<f64>)>,
 }
 
 /// Reads the protocol events, the zeroed scans and `truth_topic` of `path`
 /// in one pass.
-fn read_recorded(path: &Path, truth_topic: Option<&str>) -> Result<(Recorded, Vec<String>)> {
+fn read_recorded(path: &Path, truth: Option<TruthSource>) -> Result<(Recorded, Vec<String>)> {
     let mut topics = vec![ProtocolEvent::TOPIC, TactileZeroed::TOPIC];
-    topics.extend(truth_topic);
+    topics.extend(truth.map(TruthSource::topic));
     let mut reader = MessageReader::open(path, &topics, ReadOptions::default())?;
     let info = SessionInfo::read(path, ReadOptions::default())?;
     let mut out = Recorded { tactile: recorded_tactile(path, &info)?, ..Recorded::default() };
@@ -162,8 +203,8 @@ fn read_recorded(path: &Path, truth_topic: Option<&str>) -> Result<(Recorded, Ve
                 out.times.push(t);
             }
             _ => {
-                let r: PositionVelocity = serde_json::from_slice(&m.data).with_context(what)?;
-                out.truth.push((t, [r.position, r.velocity]));
+                let source = truth.with_context(what)?;
+                out.truth.push((t, truth_values(source, &m.data).with_context(what)?));
             }
         }
     }
@@ -172,30 +213,41 @@ fn read_recorded(path: &Path, truth_topic: Option<&str>) -> Result<(Recorded, Ve
 }
 
 /// Reads a session; `truth` names the truth to attach (an error when the
-/// session lacks it), or `None` for none.
+/// session lacks it), or `None` for none. The scans run from the first
+/// baseline-subtracted one to the release; with the planar truth, which
+/// covers the hold only, they are cut to the scans it covers.
 pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
-    let (recorded, declared) = read_recorded(path, truth.map(TruthSource::topic))?;
+    let (recorded, declared) = read_recorded(path, truth)?;
     if !declared.iter().any(|t| t == TactileZeroed::TOPIC) {
         bail!("{}: no baseline-subtracted tactile data ({})", path.display(), TactileZeroed::TOPIC);
     }
     let tactile =
         recorded.tactile.with_context(|| format!("{}: no {}", path.display(), TactileRaw::TOPIC))?;
     let end = recorded.release.unwrap_or(TimeNs(u64::MAX));
-    let scans = recorded.times.iter().take_while(|t| **t < end).count();
-    if scans < 10 {
-        bail!("{}: only {scans} tactile scans before the release", path.display());
+    let mut first = 0;
+    let mut scans = recorded.times.iter().take_while(|t| **t < end).count();
+    if let Some(TruthSource::Planar) = truth {
+        // The hold: the scans the planar truth covers.
+        let span = recorded.truth.first().zip(recorded.truth.last()).map(|(a, b)| (a.0, b.0));
+        let (from, to) =
+            span.with_context(|| format!("{}: {} is empty", path.display(), GroundTruthPlanar::TOPIC))?;
+        first = recorded.times.iter().take_while(|t| **t < from).count();
+        scans = scans.min(recorded.times.iter().take_while(|t| **t <= to).count());
     }
-    let times = recorded.times[..scans].to_vec();
-    let mut values = recorded.zeroed;
-    values.truncate(scans * tactile.layout.taxel_count());
+    if scans < first + 10 {
+        bail!("{}: only {} tactile scans before the release", path.display(), scans.saturating_sub(first));
+    }
+    let times = recorded.times[first..scans].to_vec();
+    let n = tactile.layout.taxel_count();
+    let values = recorded.zeroed[first * n..scans * n].to_vec();
     let span_s = times[times.len() - 1].secs_since(times[0]);
     let rate_hz = (times.len() - 1) as f64 / span_s.max(1e-9);
-    let truth = match truth {
+    let truth_values = match truth {
         None => None,
         Some(source) => {
             if !declared.iter().any(|t| t == source.topic()) {
                 let hint = match source {
-                    TruthSource::GroundTruth => "; run `slidetrack label` on it first",
+                    TruthSource::GroundTruth | TruthSource::Planar => "; run `slidetrack label` on it first",
                     TruthSource::ThesisGroundTruth => {
                         "; run `slidetrack label --thesis --slot thesis` on it first"
                     }
@@ -203,18 +255,35 @@ pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
                 };
                 bail!("{} has no {}{hint}", path.display(), source.topic());
             }
-            let by_time: std::collections::HashMap<u64, [f64; 2]> =
-                recorded.truth.iter().map(|(t, r)| (t.0, *r)).collect();
-            let aligned: Option<Vec<[f64; 2]>> = times.iter().map(|t| by_time.get(&t.0).copied()).collect();
-            Some(aligned.with_context(|| {
-                format!("{}: {} does not cover every tactile scan", path.display(), source.topic())
-            })?)
+            let by_time: std::collections::HashMap<u64, &Vec<f64>> =
+                recorded.truth.iter().map(|(t, r)| (t.0, r)).collect();
+            let mut flat = Vec::with_capacity(times.len() * source.dim());
+            for t in &times {
+                let v = by_time.get(&t.0).with_context(|| {
+                    format!("{}: {} does not cover every tactile scan", path.display(), source.topic())
+                })?;
+                flat.extend_from_slice(v);
+            }
+            Some(flat)
         }
     };
-    Ok(SessionData { path: path.to_path_buf(), times, tactile, zeroed: values, truth, rate_hz })
+    Ok(SessionData {
+        path: path.to_path_buf(),
+        times,
+        tactile,
+        zeroed: values,
+        truth: truth_values,
+        truth_dim: truth.map_or(0, TruthSource::dim),
+        rate_hz,
+    })
 }
 
 impl SessionData {
+    /// The truth at scan `k`, when the session has it.
+    pub fn truth_at(&self, k: usize) -> Option<&[f64]> {
+        self.truth.as_ref().map(|t| &t[k * self.truth_dim..(k + 1) * self.truth_dim])
+    }
+
     /// The baseline-subtracted taxels of every scan, in scan order.
     pub fn scans(&self) -> std::slice::ChunksExact<'_, [f64; 3]> {
         self.zeroed.chunks_exact(self.tactile.layout.taxel_count().max(1))

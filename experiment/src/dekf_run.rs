@@ -7,16 +7,29 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use serde::Serialize;
 use slidetrack_core::{TactileInfo, TimeNs};
-use slidetrack_estimators::dekf::{DekfInput, DekfModel, DekfOutput, DekfTracker, Measurement, Sequence};
+use slidetrack_estimators::dekf::{
+    DekfInput, DekfModel, DekfOutput, DekfTracker, Measurement, Sequence, StateKind,
+};
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
 use slidetrack_estimators::metrics::RunningRms;
-use slidetrack_session::{DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate};
+use slidetrack_session::{
+    ChannelHandle, DERIVATIVE_CHANNELS_KEY, DekfEstimate, Logger, NewChannel, PlanarEstimate, PlanarState,
+    SlidingEstimate,
+};
 
 use crate::channels::ChannelPicker;
 use crate::dataset::SessionData;
 
 /// Metres to centimetres.
 pub const CM: f64 = 100.0;
+/// Radians to degrees.
+pub const DEG: f64 = 180.0 / std::f64::consts::PI;
+
+/// The factors from a truth sample's SI units to a model's state units, per
+/// component: cm and cm/s; planar rotations in deg and deg/s.
+pub fn model_units(dim: usize) -> Vec<f64> {
+    if dim == 6 { vec![CM, CM, DEG, CM, CM, DEG] } else { vec![CM; dim] }
+}
 
 /// The model inputs of a session at the filter rate.
 pub struct Inputs {
@@ -24,8 +37,19 @@ pub struct Inputs {
     pub times: Vec<TimeNs>,
     /// Unnormalised measurement per step, model channel order.
     pub measurements: Vec<Vec<f64>>,
-    /// Truth per step relative to the first step, `(p, v)` in cm and cm/s.
-    pub truth: Option<Vec<[f64; 2]>>,
+    /// Truth per step in the model's state units (cm, cm/s; planar
+    /// rotations in deg, deg/s), positions relative to the first step,
+    /// `truth_dim` components each, step after step.
+    pub truth: Option<Vec<f64>>,
+    /// Components of one truth sample (2 sliding, 6 planar).
+    pub truth_dim: usize,
+}
+
+impl Inputs {
+    /// The truth at step `k`, when there is one.
+    pub fn truth_at(&self, k: usize) -> Option<&[f64]> {
+        self.truth.as_ref().map(|t| &t[k * self.truth_dim..(k + 1) * self.truth_dim])
+    }
 }
 
 /// The filter-rate inputs of `session` for the given channels and
@@ -40,20 +64,26 @@ pub fn inputs(
     let picker = ChannelPicker::new(channels, &session.tactile)
         .with_context(|| format!("{}: the channels {}", session.path.display(), channels.join(", ")))?;
     let mut input = DekfInput::new(measurement, filter, picker.len(), decimation);
+    let dim = session.truth_dim;
     let mut out = Inputs {
         times: Vec::new(),
         measurements: Vec::new(),
         truth: session.truth.as_ref().map(|_| Vec::new()),
+        truth_dim: dim,
     };
-    let origin = session.truth.as_ref().map(|t| t[0]);
+    let units = model_units(dim);
+    let origin: Option<Vec<f64>> = session.truth_at(0).map(<[f64]>::to_vec);
     let mut values = vec![0.0; picker.len()];
     for (k, (t, z)) in session.times.iter().zip(session.scans()).enumerate() {
         picker.pick(z, &mut values);
         let Some(step) = input.on_scan(t.as_secs_f64(), &values) else { continue };
         out.times.push(*t);
         out.measurements.push(step.measurement);
-        if let (Some(truth), Some(all), Some(o)) = (out.truth.as_mut(), session.truth.as_ref(), origin) {
-            truth.push([(all[k][0] - o[0]) * CM, all[k][1] * CM]);
+        if let (Some(truth), Some(x), Some(o)) = (out.truth.as_mut(), session.truth_at(k), origin.as_ref()) {
+            // Positions relative to the first step, rates as they are.
+            truth.extend(
+                (0..dim).map(|i| if i < dim / 2 { (x[i] - o[i]) * units[i] } else { x[i] * units[i] }),
+            );
         }
     }
     Ok(out)
@@ -85,6 +115,10 @@ pub fn normalisation(all: &[&Inputs], channels: usize) -> (Vec<f32>, Vec<f32>) {
 /// A training sequence from `inputs`, normalised with `model`'s normalisation.
 pub fn sequence(model: &DekfModel, inputs: &Inputs) -> Result<Sequence> {
     let truth = inputs.truth.clone().context("a training session needs its truth")?;
+    let dim = model.state().dim();
+    if inputs.truth_dim != dim {
+        bail!("a {} model needs a truth of {dim} components, not {}", model.state(), inputs.truth_dim);
+    }
     let c = model.layout.channels;
     let mut measurements = Vec::with_capacity(inputs.measurements.len() * c);
     let mut valid = Vec::with_capacity(inputs.measurements.len());
@@ -95,7 +129,7 @@ pub fn sequence(model: &DekfModel, inputs: &Inputs) -> Result<Sequence> {
         measurements.extend(v.iter().map(|x| if x.is_finite() { *x } else { 0.0 }));
         valid.push(ok);
     }
-    Ok(Sequence::sliding(measurements, valid, &truth))
+    Ok(Sequence { measurements, valid, truth, dim })
 }
 
 /// Default largest relative difference between a session's tactile rate and
@@ -184,6 +218,78 @@ pub fn estimate_message(o: &DekfOutput) -> DekfEstimate {
     })
 }
 
+/// The `/estimate/dekf_planar` message of a planar model's output (cm ->
+/// m, deg -> rad).
+pub fn planar_message(o: &DekfOutput) -> PlanarEstimate {
+    let si = [1.0 / CM, 1.0 / CM, 1.0 / DEG, 1.0 / CM, 1.0 / CM, 1.0 / DEG];
+    let m = |i: usize| o.mean[i] * si[i];
+    PlanarEstimate {
+        state: PlanarState {
+            translation_m: [m(0), m(1)],
+            rotation_rad: m(2),
+            velocity_m_per_s: [m(3), m(4)],
+            angular_velocity_rad_per_s: m(5),
+        },
+        covariance: (0..36).map(|k| o.cov_at(k / 6, k % 6) * si[k / 6] * si[k % 6]).collect(),
+    }
+}
+
+/// The estimate channel of a model: `/estimate/dekf` for sliding models,
+/// `/estimate/dekf_planar` for planar ones.
+pub enum EstimateChannel {
+    /// A sliding model's.
+    Sliding(ChannelHandle<DekfEstimate>),
+    /// A planar model's.
+    Planar(ChannelHandle<PlanarEstimate>),
+}
+
+impl EstimateChannel {
+    /// Registers the channel of `model`'s state on `logger`.
+    pub fn register(
+        logger: &Logger,
+        model: &DekfModel,
+        metadata: BTreeMap<String, String>,
+    ) -> Result<EstimateChannel> {
+        Ok(match model.state() {
+            StateKind::Sliding => EstimateChannel::Sliding(logger.register::<DekfEstimate>(metadata)?),
+            StateKind::Planar => EstimateChannel::Planar(logger.register::<PlanarEstimate>(metadata)?),
+        })
+    }
+
+    /// Logs `o` at `t`.
+    pub fn log(
+        &self,
+        logger: &Logger,
+        t: TimeNs,
+        o: &DekfOutput,
+    ) -> Result<(), slidetrack_session::SessionError> {
+        match self {
+            EstimateChannel::Sliding(ch) => logger.log_json(ch, t, t, 0, &estimate_message(o)),
+            EstimateChannel::Planar(ch) => logger.log_json(ch, t, t, 0, &planar_message(o)),
+        }
+    }
+}
+
+/// The estimates of `outputs` as the new channel a rewrite adds: the
+/// channel of the model's state.
+pub fn estimate_channel(
+    model: &DekfModel,
+    metadata: BTreeMap<String, String>,
+    outputs: &[(TimeNs, DekfOutput)],
+) -> Result<NewChannel> {
+    let mut ch = match model.state() {
+        StateKind::Sliding => NewChannel::of::<DekfEstimate>(metadata),
+        StateKind::Planar => NewChannel::of::<PlanarEstimate>(metadata),
+    };
+    for (t, o) in outputs {
+        match model.state() {
+            StateKind::Sliding => ch.push_json(*t, &estimate_message(o))?,
+            StateKind::Planar => ch.push_json(*t, &planar_message(o))?,
+        }
+    }
+    Ok(ch)
+}
+
 /// The channel metadata of `/tactile/derivative` and `/estimate/dekf` for
 /// `model` read from the file named `model_name`.
 pub fn estimate_metadata(model: &DekfModel, model_name: &str) -> Result<[BTreeMap<String, String>; 2]> {
@@ -211,8 +317,29 @@ pub struct Scores {
     pub baseline_position_rmse_cm: f64,
     /// Velocity RMSE of the zero-motion baseline (v = 0) (cm/s).
     pub baseline_velocity_rmse_cmps: f64,
+    /// Position RMSE of the linear-map baseline on the same steps (cm),
+    /// `null` without one ([`crate::linear_baseline`]).
+    pub linear_position_rmse_cm: Option<f64>,
+    /// Velocity RMSE of the linear-map baseline (cm/s), `null` without one.
+    pub linear_velocity_rmse_cmps: Option<f64>,
     /// Filter steps compared.
     pub steps: usize,
+}
+
+/// Scores estimates `(p, v)` (cm, cm/s) against the truth at the same
+/// steps, beside the linear-map baseline's estimates when there are some.
+pub fn score_with_linear(estimates: &[[f64; 2]], truth: &[[f64; 2]], linear: Option<&[[f64; 2]]>) -> Scores {
+    let mut s = score(estimates, truth);
+    if let Some(linear) = linear {
+        let [mut p, mut v] = [RunningRms::default(); 2];
+        for (e, t) in linear.iter().zip(truth).take(s.steps) {
+            p.add(e[0] - t[0]);
+            v.add(e[1] - t[1]);
+        }
+        s.linear_position_rmse_cm = p.rms();
+        s.linear_velocity_rmse_cmps = v.rms();
+    }
+    s
 }
 
 /// Scores estimates `(p, v)` (cm, cm/s) against the truth at the same steps.
@@ -241,6 +368,10 @@ pub fn score(estimates: &[[f64; 2]], truth: &[[f64; 2]]) -> Scores {
 pub fn mean_scores(all: &[Scores]) -> Scores {
     let n = all.len().max(1) as f64;
     let avg = |f: fn(&Scores) -> f64| all.iter().map(f).sum::<f64>() / n;
+    let avg_opt = |f: fn(&Scores) -> Option<f64>| {
+        let v: Option<Vec<f64>> = all.iter().map(f).collect();
+        v.filter(|v| !v.is_empty()).map(|v| v.iter().sum::<f64>() / v.len() as f64)
+    };
     Scores {
         position_rmse_cm: avg(|s| s.position_rmse_cm),
         position_max_cm: avg(|s| s.position_max_cm),
@@ -248,6 +379,8 @@ pub fn mean_scores(all: &[Scores]) -> Scores {
         velocity_max_cmps: avg(|s| s.velocity_max_cmps),
         baseline_position_rmse_cm: avg(|s| s.baseline_position_rmse_cm),
         baseline_velocity_rmse_cmps: avg(|s| s.baseline_velocity_rmse_cmps),
+        linear_position_rmse_cm: avg_opt(|s| s.linear_position_rmse_cm),
+        linear_velocity_rmse_cmps: avg_opt(|s| s.linear_velocity_rmse_cmps),
         steps: all.iter().map(|s| s.steps).sum(),
     }
 }

@@ -72,6 +72,9 @@ pub struct TrainSpec {
     /// Width, residual blocks and activation of the networks (default: the
     /// thesis's 64, 3, ReLU).
     pub architecture: Architecture,
+    /// The state tracked: the thesis's sliding (default) or planar slip
+    /// (trained against `/ground_truth/planar`, whatever `truth` says).
+    pub state: StateKind,
 }
 
 impl Default for TrainSpec {
@@ -96,6 +99,7 @@ impl Default for TrainSpec {
             rate_tolerance: DEFAULT_RATE_TOLERANCE,
             outlier_gate_sigma: DEFAULT_OUTLIER_GATE_SIGMA,
             architecture: Architecture::default(),
+            state: StateKind::Sliding,
         }
     }
 }
@@ -122,6 +126,27 @@ pub fn parse_schedule(s: &str) -> Result<Vec<Stage>> {
         bail!("invalid --schedule: no stages");
     }
     Ok(stages)
+}
+
+/// The epoch selection's score of `model` on one whole session: the RMSE of
+/// the position components of the state (in the model's units: cm for
+/// sliding; cm, cm and deg for planar), from the session's first scan.
+fn selection_score(model: &DekfModel, data: &SessionData) -> Result<f64> {
+    match model.state() {
+        StateKind::Sliding => Ok(score_session(model, data)?.position_rmse_cm),
+        StateKind::Planar => {
+            let m = &model.meta;
+            let truth = inputs(data, &m.channels, m.measurement, m.derivative_filter, m.decimation)?;
+            let outputs = crate::dekf_run::run(model, data)?;
+            let (mut sq, mut n) = (0.0, 0usize);
+            for (k, (_, o)) in outputs.iter().enumerate() {
+                let Some(x) = truth.truth_at(k) else { break };
+                sq += (0..3).map(|i| (o.mean[i] - x[i]).powi(2)).sum::<f64>();
+                n += 1;
+            }
+            Ok((sq / n.max(1) as f64).sqrt())
+        }
+    }
 }
 
 /// A trained model and how training went.
@@ -176,12 +201,12 @@ fn new_model(
         channels: channels.clone(),
         measurement: spec.measurement,
         derivative_filter: filter,
-        state: StateKind::Sliding,
-        state_units: StateKind::Sliding.units(),
-        p0_diag: StateKind::Sliding.default_p0_diag(),
+        state: spec.state,
+        state_units: spec.state.units(),
+        p0_diag: spec.state.default_p0_diag(),
         training: json!({
             "config": cfg,
-            "truth": spec.truth.topic(),
+            "truth": spec.truth.for_state(spec.state).topic(),
             "channel_set": ChannelSet::named(&spec.channels).map_or("custom", ChannelSet::name),
             "sessions": files,
             "steps": prepared.iter().map(|p| p.times.len()).sum::<usize>(),
@@ -242,8 +267,7 @@ pub fn fit_sessions(
     let stride = sessions.len().div_ceil(SELECTION_SESSIONS).max(1);
     let chosen: Vec<&SessionData> = sessions.iter().step_by(stride).collect();
     let mut score = |m: &DekfModel| -> f64 {
-        let rmse: Result<Vec<f64>> =
-            chosen.iter().map(|d| Ok(score_session(m, d)?.position_rmse_cm)).collect();
+        let rmse: Result<Vec<f64>> = chosen.iter().map(|d| selection_score(m, d)).collect();
         rmse.map_or(f64::NAN, |v| v.iter().sum::<f64>() / v.len().max(1) as f64)
     };
     let select: Option<Selection> = spec

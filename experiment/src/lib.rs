@@ -9,9 +9,11 @@ pub mod dekf_train;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod emulate;
 pub mod import;
+pub mod linear_baseline;
 pub mod marker;
 pub mod observer;
 pub mod pipeline;
+pub mod planar_eval;
 pub mod plot;
 pub mod protocol;
 pub mod record;

@@ -59,7 +59,7 @@ impl Protocol {
     /// The protocol whose labelling writes `truth`, if `slidetrack label` does.
     pub fn labelling(truth: TruthSource) -> Option<Protocol> {
         match truth {
-            TruthSource::GroundTruth => Some(Protocol::Default),
+            TruthSource::GroundTruth | TruthSource::Planar => Some(Protocol::Default),
             TruthSource::ThesisGroundTruth => Some(Protocol::Thesis),
             TruthSource::Sim => None,
         }

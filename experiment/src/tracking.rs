@@ -17,11 +17,9 @@ use slidetrack_estimators::dekf::DekfModel;
 use slidetrack_estimators::kf::Gaussian;
 use slidetrack_estimators::metrics::RunningRms;
 use slidetrack_estimators::rts::{GatedKalmanFilter, Measurement, Transition};
-use slidetrack_session::{
-    ArucoEstimate, ChannelHandle, DekfEstimate, Logger, SlidingEstimate, TactileDerivative,
-};
+use slidetrack_session::{ArucoEstimate, ChannelHandle, Logger, SlidingEstimate, TactileDerivative};
 
-use crate::dekf_run::{CM, DekfStage, estimate_message, estimate_metadata};
+use crate::dekf_run::{CM, DekfStage, EstimateChannel, estimate_metadata};
 use crate::observer::TrialExtension;
 use crate::vision_inhand::InHandVision;
 use slidetrack_vision::live::LiveThread;
@@ -151,7 +149,7 @@ pub struct LiveTrackers {
     logger: Logger,
     dekf: DekfStage,
     derivative_ch: ChannelHandle<TactileDerivative>,
-    dekf_ch: ChannelHandle<DekfEstimate>,
+    dekf_ch: EstimateChannel,
     marker: Option<(MarkerFilter, ChannelHandle<ArucoEstimate>)>,
     vision: Option<InHandVision>,
     /// The vision tracker on the rig's RGB-D camera, stopped when the
@@ -201,7 +199,7 @@ impl LiveTrackers {
             logger: logger.clone(),
             dekf: DekfStage::new(model, tactile)?,
             derivative_ch: logger.register::<TactileDerivative>(derivative_meta)?,
-            dekf_ch: logger.register::<DekfEstimate>(estimate_meta)?,
+            dekf_ch: EstimateChannel::register(logger, model, estimate_meta)?,
             marker,
             vision: None,
             camera_vision: None,
@@ -321,7 +319,7 @@ impl TrialExtension for LiveTrackers {
         let Some(out) = self.dekf.on_scan(t, zeroed) else { return Ok(()) };
         let msg = TactileDerivative { values: out.measurement.clone() };
         self.logger.log_json(&self.derivative_ch, t, t, 0, &msg)?;
-        self.logger.log_json(&self.dekf_ch, t, t, 0, &estimate_message(&out))?;
+        self.dekf_ch.log(&self.logger, t, &out)?;
         if self.truth_origin.is_none() {
             self.truth_origin = self.truth.map(|x| x[0]);
         }
@@ -329,10 +327,15 @@ impl TrialExtension for LiveTrackers {
         let released = self.released;
         self.with_status(|s| {
             s.t_s = out.t_s;
-            s.dekf = Some([out.mean[0], out.mean[1]]);
+            // Position and rate of the first degree of freedom (sliding:
+            // along the axis; planar: along the contact frame's x).
+            let dofs = out.dim() / 2;
+            s.dekf = Some([out.mean[0], out.mean[dofs]]);
             s.truth = truth;
             s.dekf_steps += 1;
-            if let (Some(tr), false) = (truth, released) {
+            // The simulator's truth is along the sliding axis: a planar
+            // model's state is not scored against it.
+            if let (Some(tr), false, 1) = (truth, released, dofs) {
                 s.dekf_errors.add([out.mean[0], out.mean[1]], tr);
             }
         });

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use slidetrack_estimators::dekf::{Activation, Batching, Measurement};
+use slidetrack_estimators::dekf::{Activation, Batching, Measurement, StateKind};
 use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
 use slidetrack_experiment::dataset::TruthSource;
 use slidetrack_experiment::dekf_train::{DEFAULT_CLIP_NORM, DEFAULT_POSITION_SHIFT_CM};
@@ -78,6 +78,26 @@ pub enum MeasurementArg {
     Raw,
 }
 
+/// The state a model tracks, on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum StateArg {
+    /// Position and velocity along the sliding axis (the thesis's).
+    Sliding,
+    /// Planar slip in the contact plane: the grip point's two translations
+    /// and the rotation about the contact normal, with their rates; trained
+    /// and scored against `/ground_truth/planar` (written by `label`).
+    Planar,
+}
+
+impl From<StateArg> for StateKind {
+    fn from(s: StateArg) -> StateKind {
+        match s {
+            StateArg::Sliding => StateKind::Sliding,
+            StateArg::Planar => StateKind::Planar,
+        }
+    }
+}
+
 /// The networks' activation, on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ActivationArg {
@@ -114,9 +134,17 @@ pub struct TrainArgs {
     /// What the model reads: the derivative of the signal or the signal.
     #[arg(long, value_enum, default_value_t = MeasurementArg::Derivative)]
     pub measurement: MeasurementArg,
-    /// Model file to write (.safetensors).
+    /// The state the model tracks: `sliding` (the thesis's, along one axis)
+    /// or `planar` (in the contact plane, against `/ground_truth/planar`).
+    #[arg(long, value_enum, default_value_t = StateArg::Sliding)]
+    pub state: StateArg,
+    /// Model file to write (.safetensors). The linear-map baseline fitted on
+    /// the same sessions goes beside it (`MODEL.linear.safetensors`).
     #[arg(long)]
     pub out: PathBuf,
+    /// Do not fit the linear-map baseline.
+    #[arg(long)]
+    pub no_linear: bool,
     /// Filter rate (Hz): the tactile stream is decimated to about this rate
     /// (the thesis trained at 30 Hz).
     #[arg(long, default_value_t = 30.0)]
@@ -230,9 +258,14 @@ pub struct EvalArgs {
     /// Session files (labelled), or directories of them.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
-    /// Score against the ArUco ground truth (default) or the simulator's truth.
+    /// Score against the ArUco ground truth (default) or the simulator's
+    /// truth (planar models are scored against `/ground_truth/planar`).
     #[arg(long, value_enum, default_value_t = TruthArg::GroundTruth)]
     pub truth: TruthArg,
+    /// The linear-map baseline to score beside the model (default: the one
+    /// `train` wrote beside it, `MODEL.linear.safetensors`, when it exists).
+    #[arg(long, value_name = "FILE")]
+    pub linear: Option<PathBuf>,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,

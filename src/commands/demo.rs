@@ -11,6 +11,7 @@ use slidetrack_experiment::dataset::{ChannelSet, TruthSource, load};
 use slidetrack_experiment::dekf_eval::{evaluate, table};
 use slidetrack_experiment::dekf_run::{save_model, write_atomically};
 use slidetrack_experiment::dekf_train::TrainSpec;
+use slidetrack_experiment::linear_baseline::{LinearBaseline, path_for};
 use slidetrack_experiment::pipeline::{DataSpec, collect, label, threads};
 use slidetrack_experiment::plot::dekf::plot_training_curve;
 use slidetrack_experiment::protocol::Protocol;
@@ -61,10 +62,13 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     let trained = fit_with_progress(&spec, &sessions, quiet)?;
     save_model(&trained.model, &model_path)?;
     println!("  {} ({:.1} s of training)", model_path.display(), trained.seconds);
+    let linear = LinearBaseline::fit(&trained.model, &sessions)?;
+    linear.save(&path_for(&model_path))?;
+    println!("  {} (the linear-map baseline on the same sessions)", path_for(&model_path).display());
     plot_training_curve(&trained.epochs, &args.out.join("training-curve.png"))?;
 
     step(&format!("evaluating on {} held-out sessions", test.len()));
-    let report = evaluate(&trained.model, test, TruthSource::GroundTruth)?;
+    let report = evaluate(&trained.model, test, TruthSource::GroundTruth, Some(&linear))?;
     print!("{}", table(&report));
     let ratio = report.mean.position_rmse_cm / report.mean.baseline_position_rmse_cm.max(1e-12);
     println!(
@@ -73,6 +77,13 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
         ratio * 100.0,
         report.mean.baseline_position_rmse_cm
     );
+    if let Some(l) = report.mean.linear_position_rmse_cm {
+        println!(
+            "the linear map on the same channels: {l:.3} cm ({:.0} % of zero motion); the dEKF is {:.0} % of it",
+            100.0 * l / report.mean.baseline_position_rmse_cm.max(1e-12),
+            100.0 * report.mean.position_rmse_cm / l.max(1e-12)
+        );
+    }
     write_atomically(&args.out.join("eval.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
 
     step("plots");

@@ -5,10 +5,10 @@
 use anyhow::{Context, Result, bail};
 use slidetrack_experiment::dataset::load;
 use slidetrack_experiment::dekf_eval::has_protocol;
-use slidetrack_experiment::dekf_run::{estimate_message, estimate_metadata, load_model, run};
+use slidetrack_experiment::dekf_run::{estimate_channel, estimate_metadata, load_model, run};
 use slidetrack_experiment::plot::dekf::plot_replay;
 use slidetrack_experiment::replay::replay_dekf;
-use slidetrack_session::{DekfEstimate, NewChannel, ReadOptions, TactileDerivative, rewrite_session};
+use slidetrack_session::{NewChannel, ReadOptions, TactileDerivative, rewrite_session};
 
 use crate::cli::ReplayArgs;
 
@@ -30,11 +30,10 @@ pub fn run_cmd(args: &ReplayArgs) -> Result<()> {
     let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
     let [derivative_meta, estimate_meta] = estimate_metadata(&model, &model_name)?;
     let mut derivative = NewChannel::of::<TactileDerivative>(derivative_meta);
-    let mut estimate = NewChannel::of::<DekfEstimate>(estimate_meta);
     for (t, o) in &outputs {
         derivative.push_json(*t, &TactileDerivative { values: o.measurement.clone() })?;
-        estimate.push_json(*t, &estimate_message(o))?;
     }
+    let estimate = estimate_channel(&model, estimate_meta, &outputs)?;
     let tmp = args.out.with_extension("mcap.partial");
     std::fs::copy(&args.file, &tmp)
         .with_context(|| format!("cannot copy {} to {}", args.file.display(), tmp.display()))?;

@@ -3,10 +3,11 @@
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use slidetrack_estimators::dekf::Architecture;
+use slidetrack_estimators::dekf::{Architecture, StateKind};
 use slidetrack_experiment::dataset::{ChannelSet, SessionData, TruthSource, expand, load};
 use slidetrack_experiment::dekf_run::save_model;
 use slidetrack_experiment::dekf_train::{TrainSpec, Trained, fit_sessions, parse_schedule};
+use slidetrack_experiment::linear_baseline::{LinearBaseline, path_for};
 use slidetrack_experiment::plot::dekf::plot_training_curve;
 use slidetrack_experiment::protocol::Protocol;
 
@@ -42,6 +43,7 @@ pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
             residual_blocks: args.blocks,
             activation: args.activation.into(),
         },
+        state: args.state.into(),
     };
     Ok(match protocol {
         Some(p) => p.training(spec),
@@ -76,17 +78,24 @@ pub fn fit_with_progress(spec: &TrainSpec, sessions: &[SessionData], quiet: bool
     trained
 }
 
-/// Reads the sessions of `args` with their truth and trains on them.
-pub fn fit(args: &TrainArgs, quiet: bool) -> Result<Trained> {
+/// Reads the sessions of `args` with their truth, trains on them, and fits
+/// the linear-map baseline on the same sessions (unless `--no-linear`).
+pub fn fit(args: &TrainArgs, quiet: bool) -> Result<(Trained, Option<LinearBaseline>)> {
     let spec = spec(args)?;
     let files = expand(&args.sessions)?;
-    let sessions = files.iter().map(|f| load(f, Some(spec.truth))).collect::<Result<Vec<_>>>()?;
-    fit_with_progress(&spec, &sessions, quiet)
+    let truth = spec.truth.for_state(spec.state);
+    let sessions = files.iter().map(|f| load(f, Some(truth))).collect::<Result<Vec<_>>>()?;
+    let trained = fit_with_progress(&spec, &sessions, quiet)?;
+    let linear = (!args.no_linear).then(|| LinearBaseline::fit(&trained.model, &sessions)).transpose()?;
+    Ok((trained, linear))
 }
 
 pub fn run(args: &TrainArgs, quiet: bool) -> Result<()> {
-    let trained = fit(args, quiet)?;
+    let (trained, linear) = fit(args, quiet)?;
     save_model(&trained.model, &args.out)?;
+    if let Some(linear) = &linear {
+        linear.save(&path_for(&args.out))?;
+    }
     if let Some(plot) = &args.plot {
         plot_training_curve(&trained.epochs, plot)?;
     }
@@ -94,6 +103,8 @@ pub fn run(args: &TrainArgs, quiet: bool) -> Result<()> {
     if args.json {
         let out = json!({
             "model": args.out,
+            "linear": linear.as_ref().map(|_| path_for(&args.out)),
+            "state": trained.model.state(),
             "channels": trained.model.meta.channels,
             "architecture": trained.model.architecture(),
             "measurement": trained.model.meta.measurement.name(),
@@ -103,24 +114,33 @@ pub fn run(args: &TrainArgs, quiet: bool) -> Result<()> {
         });
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
+        let units = trained.model.state().units();
+        let (p, v) = units.split_at(trained.model.state().dofs());
         println!(
-            "{}: {} channels ({}), {} epochs in {:.1} s; final training RMSE {:.3} cm, {:.3} cm/s",
+            "{}: {} state, {} channels ({}), {} epochs in {:.1} s; final training RMSE {:.3} {}, {:.3} {}",
             args.out.display(),
+            trained.model.state(),
             trained.model.meta.channels.len(),
             trained.model.meta.measurement.name(),
             trained.epochs.len(),
             trained.seconds,
             last.map_or(f64::NAN, |e| e.rmse[0]),
+            p.join("|"),
             last.map_or(f64::NAN, |e| e.rmse[1]),
+            v.join("|"),
         );
+        if linear.is_some() {
+            println!("  linear-map baseline: {}", path_for(&args.out).display());
+        }
         let best = trained
             .epochs
             .iter()
             .filter_map(|e| e.selection_score.map(|s| (e.epoch, s)))
             .min_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((epoch, score)) = best {
+            let unit = if trained.model.state() == StateKind::Planar { "cm|deg" } else { "cm" };
             println!(
-                "  kept epoch {epoch}: position RMSE {score:.3} cm over whole training sessions (--no-select keeps the last)"
+                "  kept epoch {epoch}: position RMSE {score:.3} {unit} over whole training sessions (--no-select keeps the last)"
             );
         }
     }

@@ -30,7 +30,7 @@ pub fn plot_replay(file: &Path, outputs: &[(TimeNs, DekfOutput)], out: &Path) ->
         (TruthSource::Sim, "simulator truth", PALETTE[2]),
     ] {
         if let Ok(d) = load(file, Some(source)) {
-            let truth = d.truth.unwrap_or_default();
+            let truth: Vec<&[f64]> = (0..d.times.len()).filter_map(|k| d.truth_at(k)).collect();
             let start = d.times.iter().position(|t| t.as_secs_f64() >= t0).unwrap_or(0);
             let origin = truth.get(start).map_or(0.0, |x| x[0]);
             pos.insert(
