@@ -303,10 +303,10 @@ impl GraspDetector {
         if let Some(load) = load {
             self.step_load(load, opening);
         }
-        if self.state.is_held() {
-            if let (Some(score), Some(hysteresis)) = (slip, self.cfg.slip) {
-                self.step_slip(scan.t_s, score, hysteresis);
-            }
+        if self.state.is_held()
+            && let (Some(score), Some(hysteresis)) = (slip, self.cfg.slip)
+        {
+            self.step_slip(scan.t_s, score, hysteresis);
         }
         self.last = self.reading(scan.t_s, previous, load, slip);
         self.last
