@@ -215,7 +215,8 @@ pub struct GraspDetector {
     cfg: GraspDetectorConfig,
     state: GraspState,
     grasp: u32,
-    /// Running peak of the load in this hold (counts), 0 in Idle.
+    /// Running peak of the load in the current or the last hold (counts);
+    /// set afresh when a hold begins.
     peak_load_counts: f64,
     /// Smallest and latest opening seen in this hold (m).
     min_opening_m: Option<f64>,
@@ -344,7 +345,6 @@ impl GraspDetector {
             }
             GraspState::Dropped | GraspState::Released if load < self.cfg.contact_load_counts => {
                 self.state = GraspState::Idle;
-                self.peak_load_counts = 0.0;
             }
             _ => {}
         }

@@ -2,7 +2,6 @@
 //! time, the delay of drop detection, false alarms per minute of holding, and
 //! the ROC of a score that should separate two classes.
 
-use std::cmp::Ordering;
 use std::ops::AddAssign;
 
 use serde::Serialize;
@@ -138,11 +137,6 @@ fn roc_inputs(scores: &[f64], labels: &[bool]) -> Result<(usize, usize), GraspEr
     Ok((positives, labels.len() - positives))
 }
 
-/// Score order with `-0 == 0` (no NaN: checked before).
-fn by_score(a: f64, b: f64) -> Ordering {
-    a.partial_cmp(&b).unwrap_or(Ordering::Equal)
-}
-
 /// The area under the ROC curve: the probability that a positive
 /// (`labels[i] == true`) scores higher than a negative, ties counted half
 /// (the Mann-Whitney U over `positives * negatives`). 1 when every positive
@@ -154,7 +148,8 @@ pub fn roc_auc(scores: &[f64], labels: &[bool]) -> Result<Option<f64>, GraspErro
         return Ok(None);
     }
     let mut order: Vec<usize> = (0..scores.len()).collect();
-    order.sort_by(|&a, &b| by_score(scores[a], scores[b]));
+    // Ties are runs of `==` scores: -0 and 0 sort next to each other.
+    order.sort_by(|&a, &b| scores[a].total_cmp(&scores[b]));
     // Sum of the (1-based, tie-averaged) ranks of the positives.
     let mut rank_sum = 0.0;
     let mut start = 0;
@@ -199,7 +194,7 @@ pub fn roc_curve(scores: &[f64], labels: &[bool]) -> Result<Option<RocCurve>, Gr
         return Ok(None);
     }
     let mut order: Vec<usize> = (0..scores.len()).collect();
-    order.sort_by(|&a, &b| by_score(scores[b], scores[a]));
+    order.sort_by(|&a, &b| scores[b].total_cmp(&scores[a]));
     let mut curve = RocCurve { thresholds: vec![f64::INFINITY], tpr: vec![0.0], fpr: vec![0.0] };
     let (mut tp, mut fp) = (0usize, 0usize);
     for (k, &i) in order.iter().enumerate() {
