@@ -4,9 +4,7 @@
 //! matrices are in the module documentation of [`super`].
 #![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K, S)")]
 
-use nalgebra::{
-    Cholesky, Matrix2, Matrix3, Matrix6, RowVector2, RowVector3, SMatrix, U3, UnitQuaternion, Vector3,
-};
+use nalgebra::{Matrix2, Matrix3, Matrix6, RowVector2, RowVector3, SMatrix, UnitQuaternion, Vector3};
 
 use super::so3::left_jacobian;
 use super::{PoseMeasurement, PoseSample, PoseSmootherParams, SmoothedPose};
@@ -229,8 +227,8 @@ struct PoseInnovation {
     S_translation: f64,
     /// `y = Log(q_meas q_pred^-1)` (rad).
     y_rotation: Vector3<f64>,
-    /// The Cholesky factor of `S = H P H^T + R` of the orientation (rad^2).
-    S_rotation: Cholesky<f64, U3>,
+    /// `S^-1` of the orientation, `S = H P H^T + R` (rad^-2).
+    S_rotation_inv: Matrix3<f64>,
     /// `y^T S^-1 y` of the 6-D innovation.
     mahalanobis2: f64,
     /// `log det(2 pi S)` of the 6-D innovation covariance.
@@ -257,20 +255,30 @@ fn innovation(
     let y_rotation = ominus(&z.orientation, &prior.orientation);
     let H_r = PoseSmootherParams::H_rotation();
     let S_r = H_r * prior.P_rotation * H_r.transpose() + params.R_rotation();
-    let S_rotation = S_r.cholesky().ok_or(EstimatorError::SingularInnovation)?;
-    let log_det_S_r = 2.0 * S_rotation.l_dirty().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+    // 3x3: the closed-form determinant and inverse (S is symmetric, and
+    // positive definite when P is; a determinant that is not is refused).
+    let det_S_r = S_r.determinant();
+    let S_rotation_inv =
+        S_r.try_inverse().filter(|_| det_S_r > 0.0).ok_or(EstimatorError::SingularInnovation)?;
     let mahalanobis2 =
-        y_translation.norm_squared() / S_translation + y_rotation.dot(&S_rotation.solve(&y_rotation));
-    let log_det_2pi_S = 6.0 * LN_2PI + 3.0 * S_translation.ln() + log_det_S_r;
+        y_translation.norm_squared() / S_translation + y_rotation.dot(&(S_rotation_inv * y_rotation));
+    let log_det_2pi_S = 6.0 * LN_2PI + 3.0 * S_translation.ln() + det_S_r.ln();
     if !(mahalanobis2.is_finite() && log_det_2pi_S.is_finite()) {
         return Err(EstimatorError::SingularInnovation);
     }
-    Ok(PoseInnovation { y_translation, S_translation, y_rotation, S_rotation, mahalanobis2, log_det_2pi_S })
+    Ok(PoseInnovation {
+        y_translation,
+        S_translation,
+        y_rotation,
+        S_rotation_inv,
+        mahalanobis2,
+        log_det_2pi_S,
+    })
 }
 
 /// The correction with marker pose `z` unless the gate rejects it: the
 /// posterior, what the measurement was used for, and its log-likelihood
-/// term. The gate's state is kept only once the step has succeeded.
+/// term. (Nothing fails after the gate has decided.)
 fn correct(
     params: &PoseSmootherParams,
     gate: Option<Gate>,
@@ -280,14 +288,11 @@ fn correct(
 ) -> Result<(Belief, MeasurementUse, f64), EstimatorError> {
     let innov = innovation(params, prior, z)?;
     let mahalanobis2 = innov.mahalanobis2;
-    if let Some(gate) = gate {
-        let mut state = *gate_state;
-        let admitted = state.admits(&gate, mahalanobis2);
-        *gate_state = state;
-        if !admitted {
-            let term = -0.5 * (innov.log_det_2pi_S + gate.max_mahalanobis2);
-            return Ok((*prior, MeasurementUse::Rejected { mahalanobis2 }, term));
-        }
+    if let Some(gate) = gate
+        && !gate_state.admits(&gate, mahalanobis2)
+    {
+        let term = -0.5 * (innov.log_det_2pi_S + gate.max_mahalanobis2);
+        return Ok((*prior, MeasurementUse::Rejected { mahalanobis2 }, term));
     }
     let term = -0.5 * (innov.log_det_2pi_S + mahalanobis2);
     Ok((update(params, prior, &innov), MeasurementUse::Accepted { mahalanobis2 }, term))
@@ -302,9 +307,9 @@ fn update(params: &PoseSmootherParams, prior: &Belief, innov: &PoseInnovation) -
     let I_KH_t = Matrix2::identity() - K_t * H_t;
     let P_translation =
         I_KH_t * prior.P_translation * I_KH_t.transpose() + K_t * params.r_position_m2 * K_t.transpose();
-    // Orientation: K = P H^T S^-1, so K^T = S^-1 H P (S and P symmetric).
+    // Orientation: K = P H^T S^-1.
     let H_r = PoseSmootherParams::H_rotation();
-    let K_r = innov.S_rotation.solve(&(H_r * prior.P_rotation)).transpose();
+    let K_r = prior.P_rotation * H_r.transpose() * innov.S_rotation_inv;
     let I_KH_r = Matrix6::identity() - K_r * H_r;
     let P_rotation =
         I_KH_r * prior.P_rotation * I_KH_r.transpose() + K_r * params.R_rotation() * K_r.transpose();

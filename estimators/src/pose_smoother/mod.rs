@@ -60,7 +60,7 @@
 //! reported in the tangent space of the filtered `q_k`, not of the smoothed
 //! one (both differ by a rotation of the size of the smoothing correction,
 //! a fraction of the measurement noise here). For the translation every
-//! step is exact: the linear RTS smoother of [`crate::rts::smooth`].
+//! step is exact: the equations of [`crate::rts::smooth`].
 //!
 //! # Start, gaps, gate
 //! The filter starts at the first sample with a measurement: its prior is
@@ -98,8 +98,8 @@ use filter::Belief;
 /// innovation: the chi-square quantile with 6 degrees of freedom of the tail
 /// probability 5.7e-7 that the 1-D gate of 25 (5 sigma) of the marker
 /// positions has, so an inlier marker pose is rejected as rarely as a
-/// position is there. (99.9 % would be 22.5; an ArUco orientation flip of
-/// 30 degrees at 1 degree of noise is at a distance near 1000.)
+/// position is there. (The 99.9 % quantile would be 22.5; an ArUco
+/// orientation flip of 30 degrees at 1 degree of noise lies in the hundreds.)
 pub const POSE_GATE_MAHALANOBIS2: f64 = 39.5;
 
 /// One sample time, with the marker pose measured there if any.

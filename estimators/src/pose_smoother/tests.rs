@@ -382,9 +382,9 @@ fn starts_gaps_and_bad_times() {
     let params = PoseSmootherParams::default();
     let out = smooth_poses(&params, &samples).unwrap();
     assert_eq!(out.smoothed.len(), 60);
-    for k in 0..4 {
-        assert_eq!(out.smoothed[k], SmoothedPose { t_s: samples[k].t_s, ..out.smoothed[4] });
-        assert_eq!(out.filtered[k], SmoothedPose { t_s: samples[k].t_s, ..out.filtered[4] });
+    for (k, s) in samples.iter().enumerate().take(4) {
+        assert_eq!(out.smoothed[k], SmoothedPose { t_s: s.t_s, ..out.smoothed[4] });
+        assert_eq!(out.filtered[k], SmoothedPose { t_s: s.t_s, ..out.filtered[4] });
         assert_eq!(out.measurements[k], MeasurementUse::Missing);
     }
     assert!(matches!(out.measurements[4], MeasurementUse::Accepted { mahalanobis2 } if mahalanobis2 < 1e-20));

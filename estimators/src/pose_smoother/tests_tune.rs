@@ -48,14 +48,17 @@ fn simulated(truth: &PoseSmootherParams, n: usize, seed: u64) -> Vec<PoseSample>
 }
 
 /// 1 mm and 1 degree of marker noise; position and orientation walks of
-/// 0.3 mm and 0.6 degree per root second; velocity changes of 1 cm/s and
-/// angular-velocity changes of 0.3 rad/s per root second.
+/// 1 mm and 1.8 degrees per root second; velocity changes of 1 cm/s and
+/// angular-velocity changes of 0.3 rad/s per root second. (With an
+/// orientation walk ten times weaker, 0.1 degree per 1/30 s step beside
+/// 1 degree of noise, `q_theta` is not identifiable from 6 x 30 s: over five
+/// seed sets its estimate spread from 0 to 2.4 times the truth.)
 fn truth() -> PoseSmootherParams {
     PoseSmootherParams {
         q_position_m2_per_s: 1e-6,
         q_velocity_m2_per_s3: 1e-4,
         r_position_m2: 1e-6,
-        q_orientation_rad2_per_s: 1e-4,
+        q_orientation_rad2_per_s: 1e-3,
         q_angular_velocity_rad2_per_s3: 0.1,
         r_orientation_rad2: 1f64.to_radians().powi(2),
         gate: None,
@@ -96,12 +99,18 @@ fn the_densities_that_made_the_data_are_found_again_jointly() {
         );
         (gate, tuned, ratios)
     });
+    // Over five seed sets (gate off): the noises within 1.2 %, q_v and
+    // q_omega within 10 %, q_p from 0.64 to 1.11, q_theta from 0.85 to 1.10.
     for (gate, tuned, ratios) in runs {
+        let off = |i: usize| ratios[i].ln().abs();
         for i in [2, 5] {
-            assert!((ratios[i] - 1.0).abs() < 0.2, "measurement noise {i}: ratio {}", ratios[i]);
+            assert!(off(i) < 1.05f64.ln(), "measurement noise {i}: ratio {}", ratios[i]);
         }
-        for i in [0, 1, 3, 4] {
-            assert!(ratios[i].ln().abs() < 2f64.ln(), "process density {i}: ratio {}", ratios[i]);
+        for i in [1, 4] {
+            assert!(off(i) < 1.25f64.ln(), "velocity density {i}: ratio {}", ratios[i]);
+        }
+        for i in [0, 3] {
+            assert!(off(i) < 2f64.ln(), "pose walk density {i}: ratio {}", ratios[i]);
         }
         assert_eq!(tuned.measurements, 5400);
         let sum: f64 = slices.iter().map(|s| log_likelihood(&tuned.params, s)).sum();
