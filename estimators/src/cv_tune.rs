@@ -133,7 +133,7 @@ pub fn tune_noise_jointly(start: &CvSmootherParams, sequences: &[&[CvSample]]) -
 /// along each axis; stops when the simplex's values differ by less than
 /// `tolerance` or after `max_evaluations`. Returns the best point and the
 /// evaluations used.
-fn nelder_mead(
+pub(crate) fn nelder_mead(
     f: &impl Fn(&[f64; 3]) -> f64,
     x0: [f64; 3],
     step: f64,
