@@ -1,22 +1,5 @@
-//! The map file: safetensors, all tensors `F64` and row-major, names and
-//! settings as JSON strings in the header. Bytes in, bytes out.
-//!
-//! | tensor                | shape               | holds                                    |
-//! |-----------------------|---------------------|------------------------------------------|
-//! | `linear.weight`       | `[outputs, inputs]` | `W'`: `y = W' x + b` in the input units  |
-//! | `linear.bias`         | `[outputs]`         | `b`                                      |
-//! | `standardised.weight` | `[outputs, inputs]` | `W`, on standardised inputs (as fitted)  |
-//! | `input_mean`          | `[inputs]`          | `μ`                                      |
-//! | `input_std`           | `[inputs]`          | `σ`, positive                            |
-//! | `output_mean`         | `[outputs]`         | `ȳ`                                      |
-//!
-//! Any tool can apply `linear.*` alone. `standardised.weight` is what
-//! slidetrack applies, kept so that a map read back is the map written, bit
-//! for bit (`W'·σ` need not round back to `W`); reading checks that the two
-//! agree. Metadata keys: [`FORMAT_KEY`] (= [`FORMAT`]), `input_names`,
-//! `output_names` (JSON arrays of strings), `lambda` (JSON array, one penalty
-//! per output), `meta` (JSON). The header's keys are sorted, so the same map
-//! gives the same bytes.
+//! The map file (format in the [`linear_map`](crate::linear_map) docs). Bytes in,
+//! bytes out.
 
 use std::collections::HashMap;
 
@@ -52,7 +35,7 @@ fn le_bytes(values: &[f64]) -> Vec<u8> {
 }
 
 impl LinearMap {
-    /// The map as safetensors bytes (format in the [module docs](self)).
+    /// The map as safetensors bytes (format in the [`linear_map`](crate::linear_map) docs).
     ///
     /// # Errors
     /// Only if safetensors refuses the tensors (a bug).
@@ -87,7 +70,7 @@ impl LinearMap {
     }
 
     /// A map from bytes written by [`LinearMap::to_bytes`] (or by any tool
-    /// following the format in the [module docs](self)).
+    /// following the format in the [`linear_map`](crate::linear_map) docs).
     ///
     /// # Errors
     /// Not safetensors; a metadata entry missing or wrong (which key, what);

@@ -37,6 +37,28 @@
 //! [`CvScheme`]: rows of one session are neighbours in time and nearly
 //! repeat each other, and held out only together does the error measure
 //! prediction on an unseen session.
+//!
+//! # File
+//!
+//! [`LinearMap::to_bytes`] writes safetensors, all tensors `F64`, matrices
+//! row-major:
+//!
+//! | tensor                | shape               | holds                                    |
+//! |-----------------------|---------------------|------------------------------------------|
+//! | `linear.weight`       | `[outputs, inputs]` | `W'`: `y = W' x + b` in the input units  |
+//! | `linear.bias`         | `[outputs]`         | `b`                                      |
+//! | `standardised.weight` | `[outputs, inputs]` | `W`, on standardised inputs (as fitted)  |
+//! | `input_mean`          | `[inputs]`          | `μ`                                      |
+//! | `input_std`           | `[inputs]`          | `σ`, positive                            |
+//! | `output_mean`         | `[outputs]`         | `ȳ`                                      |
+//!
+//! Any tool can apply `linear.*` alone. `standardised.weight` is what
+//! slidetrack applies, kept so that a map read back is the map written, bit
+//! for bit (`W'·σ` need not round back to `W`); reading checks that the two
+//! agree (to 1e-9). Header metadata, all JSON strings: [`FORMAT_KEY`]
+//! (= [`FORMAT`]), `input_names` and `output_names` (arrays of strings),
+//! `lambda` (array, one penalty per output), `meta` (any JSON). The header's
+//! keys are sorted, so the same map gives the same bytes.
 
 mod file;
 mod fit;
