@@ -18,18 +18,47 @@ fn dataset() -> PathBuf {
 /// The first trial: the longest, no slip.
 const FIRST: &str = "data_sample_2022-02-21-09-58-49";
 
-/// Per trial, counted with awk on the files: rows of every file, rows with
-/// `slip` 1.0, rows with `fail` 1.0, rows whose marker fields are all 10.0,
-/// the last `time`, `dropped`, rows whose counts (both sensors) repeat the
-/// previous row's.
-const TRIALS: [(&str, usize, usize, usize, usize, f64, bool, usize); 7] = [
-    ("data_sample_2022-02-21-09-58-49", 404, 0, 0, 0, 6.75, false, 37),
-    ("data_sample_2022-02-21-14-10-49", 354, 0, 0, 0, 5.917, false, 29),
-    ("data_sample_2022-02-21-15-29-08", 323, 0, 0, 0, 5.387, false, 19),
-    ("data_sample_2022-02-21-17-22-56", 300, 0, 0, 0, 5.02, false, 17),
-    ("data_sample_2022-02-22-08-10-01", 285, 104, 101, 101, 4.751, false, 20),
-    ("data_sample_2022-02-22-11-23-11", 270, 42, 0, 0, 4.501, false, 20),
-    ("data_sample_2022-02-22-15-15-00", 259, 50, 136, 136, 4.314, true, 17),
+/// One trial's numbers, counted with awk on the files.
+struct Trial {
+    name: &'static str,
+    /// Rows of every file.
+    rows: usize,
+    /// Rows with `slip` 1.0.
+    slip: usize,
+    /// Rows with `fail` 1.0.
+    fail: usize,
+    /// Rows whose marker fields are all 10.0.
+    unseen: usize,
+    /// The last `time` (s).
+    t_last: f64,
+    /// `dropped`.
+    dropped: bool,
+    /// Rows whose counts (both sensors) repeat the previous row's.
+    repeated: usize,
+}
+
+const fn trial(
+    name: &'static str,
+    rows: usize,
+    labels: [usize; 3],
+    t_last: f64,
+    dropped: bool,
+    repeated: usize,
+) -> Trial {
+    let [slip, fail, unseen] = labels;
+    Trial { name, rows, slip, fail, unseen, t_last, dropped, repeated }
+}
+
+/// The seven trials: name, rows, [slip, fail, unseen] rows, last time,
+/// dropped, repeated rows.
+const TRIALS: [Trial; 7] = [
+    trial("data_sample_2022-02-21-09-58-49", 404, [0, 0, 0], 6.75, false, 37),
+    trial("data_sample_2022-02-21-14-10-49", 354, [0, 0, 0], 5.917, false, 29),
+    trial("data_sample_2022-02-21-15-29-08", 323, [0, 0, 0], 5.387, false, 19),
+    trial("data_sample_2022-02-21-17-22-56", 300, [0, 0, 0], 5.02, false, 17),
+    trial("data_sample_2022-02-22-08-10-01", 285, [104, 101, 101], 4.751, false, 20),
+    trial("data_sample_2022-02-22-11-23-11", 270, [42, 0, 0], 4.501, false, 20),
+    trial("data_sample_2022-02-22-15-15-00", 259, [50, 136, 136], 4.314, true, 17),
 ];
 
 fn all_sequences() -> Vec<PscSequence> {
@@ -40,7 +69,8 @@ fn all_sequences() -> Vec<PscSequence> {
 fn all_seven_trials_parse_with_the_counted_rows_and_labels() {
     let sequences = all_sequences();
     assert_eq!(sequences.len(), 7);
-    for (seq, &(name, rows, slip, fail, unseen, t_last, dropped, repeated)) in sequences.iter().zip(&TRIALS) {
+    for (seq, trial) in sequences.iter().zip(&TRIALS) {
+        let Trial { name, rows, slip, fail, unseen, t_last, dropped, repeated } = *trial;
         assert_eq!(seq.name, name);
         assert_eq!(seq.file_rows(), [rows; 5], "{name}");
         assert_eq!((seq.rows(), seq.shared_rows()), (rows, rows), "{name}");
