@@ -1,4 +1,5 @@
-//! `slidetrack import`: recordings made elsewhere turned into sessions.
+//! `slidetrack import`: recordings made elsewhere turned into sessions
+//! (`xela-csv` for xela-imanlab, `xela-psc`).
 
 use std::path::PathBuf;
 
@@ -19,6 +20,11 @@ pub enum ImportCommand {
     /// Panda, two ArUco markers seen by a wrist camera): one session per
     /// sequence folder, named after it.
     XelaCsv(XelaCsvArgs),
+    /// The xela-psc CSV trials (imanlab's proactive-slip-control data set:
+    /// two uSkin 4x4 patches on a Franka Panda moving a box ever faster, one
+    /// ArUco marker seen by a wrist camera, slip labels): one session per
+    /// trial folder, named after it.
+    XelaPsc(XelaPscArgs),
 }
 
 /// `slidetrack import xela-csv`.
@@ -35,6 +41,24 @@ pub struct XelaCsvArgs {
     #[arg(long)]
     pub overwrite: bool,
     /// One JSON object per imported sequence instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `slidetrack import xela-psc`.
+#[derive(Debug, Args)]
+pub struct XelaPscArgs {
+    /// Trial folders (`data_sample_<date>`, holding `xela_sensor1.csv`) or
+    /// folders of them (such as the data set's `data_set/`).
+    #[arg(required = true, value_name = "DIR")]
+    pub dirs: Vec<PathBuf>,
+    /// Folder to write the sessions to (created if missing).
+    #[arg(long, value_name = "OUTDIR")]
+    pub out: PathBuf,
+    /// Replace sessions that exist already.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// One JSON object per imported trial instead of text.
     #[arg(long)]
     pub json: bool,
 }

@@ -79,7 +79,7 @@ pub enum Command {
     Study(StudyArgs),
     /// Turn captured tactile traffic (candump log, raw serial bytes) into a session.
     Decode(DecodeArgs),
-    /// Turn recordings made elsewhere (the xela-imanlab CSVs) into sessions.
+    /// Turn recordings made elsewhere (the xela-imanlab and xela-psc CSVs) into sessions.
     Import(ImportArgs),
     /// Serve an emulated device (Robotiq gripper, tactile sensors) where the real one would be.
     Emulate(EmulateArgs),

@@ -21,7 +21,6 @@
 //! its columns as written in [`XelaMeta::fields`]. Headers must be exactly
 //! the dataset's; a malformed file is an error naming file, line and column.
 
-mod parse;
 #[cfg(test)]
 mod study;
 #[cfg(test)]
@@ -31,7 +30,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use parse::{At, Row, check_header, parse_count, parse_f64, parse_flag, parse_wall_time_s, read_table};
+use super::csv_parse::{
+    At, numbers, parse_count, parse_f64, parse_flag, parse_wall_time_s, read_npy_string, read_rows,
+    read_table,
+};
 
 /// Taxels of one uSkin patch (4 x 4).
 pub const TAXELS: usize = 16;
@@ -203,7 +205,7 @@ pub struct MarkerPose {
 impl MarkerPose {
     /// `None` for the not-seen sentinel (all seven values 10.0); any other
     /// values are kept as written.
-    fn from_values(v: &[f64]) -> Option<MarkerPose> {
+    pub(crate) fn from_values(v: &[f64]) -> Option<MarkerPose> {
         if v.iter().all(|&x| x == MARKER_NOT_SEEN) {
             return None;
         }
@@ -256,7 +258,7 @@ pub fn read_sequence(dir: &Path) -> Result<XelaSequence> {
     let robot = read_robot(&dir.join(ROBOT_FILE))?;
     let markers = read_markers(&dir.join(MARKER_FILE))?;
     let npy = dir.join(META_NPY_FILE);
-    let meta_npy_path = if npy.exists() { Some(parse::read_npy_string(&npy)?) } else { None };
+    let meta_npy_path = if npy.exists() { Some(read_npy_string(&npy)?) } else { None };
     let shared = tactile.iter().map(Vec::len).chain([robot.len(), markers.len()]).min().unwrap_or(0);
     let [mut tactile1, mut tactile2] = tactile;
     let tail = XelaTail {
@@ -315,30 +317,9 @@ fn is_sequence_dir(dir: &Path) -> bool {
     dir.join(TACTILE_FILES[0]).is_file()
 }
 
-/// The data rows of a file with the expected header, each parsed by `row`.
-fn read_rows<T>(
-    path: &Path,
-    expected: &[&str],
-    mut row: impl FnMut(&Path, &[String], &Row) -> Result<T>,
-) -> Result<Vec<T>> {
-    let table = read_table(path)?;
-    check_header(path, &table.header, expected)?;
-    if table.rows.is_empty() {
-        bail!("{}: no data rows", path.display());
-    }
-    table.rows.iter().map(|r| row(path, &table.header, r)).collect()
-}
-
-/// The fields of a row as numbers (the row has `N` fields: checked by the header).
-fn numbers<const N: usize>(path: &Path, header: &[String], row: &Row) -> Result<[f64; N]> {
-    let mut out = [0.0; N];
-    for (col, (slot, value)) in out.iter_mut().zip(row.fields.iter()).enumerate() {
-        *slot = parse_f64(At { path, line: row.line, col, name: &header[col] }, value)?;
-    }
-    Ok(out)
-}
-
-fn read_tactile(path: &Path) -> Result<Vec<PatchCounts>> {
+/// Reads a tactile file (`xela_sensor1.csv` / `xela_sensor2.csv`: 48 counts
+/// per row, [`tactile_columns`]).
+pub(crate) fn read_tactile(path: &Path) -> Result<Vec<PatchCounts>> {
     let columns = tactile_columns();
     let expected: Vec<&str> = columns.iter().map(String::as_str).collect();
     read_rows(path, &expected, |path, header, row| {

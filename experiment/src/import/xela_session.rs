@@ -28,105 +28,33 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use nalgebra::Vector3;
-use serde::{Deserialize, Serialize};
-use serde_json::{Value, json};
-use slidetrack_core::{FingerReading, PerFinger, SensorLayout, TactileInfo, TactileLayout, TimeNs};
-use slidetrack_session::vision_pose::XyzM;
+use slidetrack_core::{TactileInfo, TimeNs};
 use slidetrack_session::{
-    ArucoDetection, ChannelHandle, ChannelMessage, FoxgloveTime, FrameTransform, HandState, PoseInFrame,
-    Quaternion, Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TactileRaw, TactileTare,
-    TactileZeroed, TaxelLayout, Untyped, VisionPose, sensor_taxels,
+    ArucoDetection, ChannelHandle, ChannelMessage, HandState, Recorder, RecorderOptions, SessionMetadata,
+    TAXEL_LAYOUT_KEY, TaxelLayout, Untyped, VisionPose,
 };
 
-use super::xela_csv::{MarkerPose, PatchCounts, RobotState, SENSORS, TAXELS, XelaSequence};
+pub use super::robot_state::{RobotStateMessage, robot_schema};
+pub use super::session_parts::{
+    BASE_FRAME, BASELINE_ROWS, CAMERA_FRAME, EE_POSE_TOPIC, MARKER_TF_TOPIC, ROBOT_TOPIC, SENSOR_MODEL,
+    SENSOR_NAMES,
+};
+use super::session_parts::{
+    TactileChannels, TactileWriter, json_channel, log_value, marker_detection, pose_of, scan_of_patches,
+    sequence_of, session_file, transform_of, two_patch_info, wrist_camera_rig_config, write_atomically,
+};
+use super::xela_csv::{MarkerPose, PatchCounts, RobotState, SENSORS, XelaSequence};
 
 /// `rig` of imported sessions.
 pub const RIG_NAME: &str = "xela-imanlab";
 /// Metadata record holding every value of `meta_data.csv` and the import's facts.
 pub const SOURCE_METADATA: &str = "xela_imanlab";
-/// Names of the two patches in the layout (`xela_sensor1.csv`, `xela_sensor2.csv`).
-pub const SENSOR_NAMES: [&str; SENSORS] = ["sensor1", "sensor2"];
-/// The patches' model (XELA uSkin 4x4 patch).
-pub const SENSOR_MODEL: &str = "uSPa44";
-/// Rows averaged into the tactile baseline (before contact in every sequence).
-pub const BASELINE_ROWS: usize = 10;
 /// The sliding direction in the wrist camera's optical frame: the principal
 /// direction of marker 1's displacements pooled over the 53 sequences
 /// (`docs/real-data.md`, "What sliding looks like"); normalised on use.
 pub const SLIDING_AXIS_IN_CAMERA: [f64; 3] = [-0.08, -0.60, 0.80];
-/// The wrist camera's optical frame (x right, y down, z forward).
-pub const CAMERA_FRAME: &str = "camera";
-/// The robot's base frame of the end-effector pose.
-pub const BASE_FRAME: &str = "base";
 /// Topics of the markers' poses.
 pub const MARKER_POSE_TOPICS: [&str; 2] = ["/markers/marker1/pose", "/markers/marker2/pose"];
-/// Topic of the markers' frame transforms.
-pub const MARKER_TF_TOPIC: &str = "/markers/tf";
-/// Topic of the robot state.
-pub const ROBOT_TOPIC: &str = "/robot/state";
-/// Topic of the end-effector pose.
-pub const EE_POSE_TOPIC: &str = "/robot/ee_pose";
-
-/// `/robot/state`: the Franka Panda, one row of `robot_state.csv`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct RobotStateMessage {
-    /// `position_panda_joint1..7` (rad).
-    pub joint_position_rad: [f64; 7],
-    /// `velocity_panda_joint1..7` (rad/s).
-    pub joint_velocity_rad_s: [f64; 7],
-    /// `ee_state_position_{x,y,z}`: end-effector position in the base frame (m).
-    pub ee_position_in_base_m: [f64; 3],
-    /// `ee_state_orientation_{x,y,z,w}`: base-from-end-effector rotation.
-    pub ee_orientation_in_base: Quaternion,
-}
-
-impl From<&RobotState> for RobotStateMessage {
-    fn from(r: &RobotState) -> RobotStateMessage {
-        let [x, y, z, w] = r.ee_orientation_in_base_xyzw;
-        RobotStateMessage {
-            joint_position_rad: r.joint_position_rad,
-            joint_velocity_rad_s: r.joint_velocity_rad_s,
-            ee_position_in_base_m: r.ee_position_in_base_m,
-            ee_orientation_in_base: Quaternion { x, y, z, w },
-        }
-    }
-}
-
-fn number_array(n: usize, description: &str) -> Value {
-    json!({"type": "array", "items": {"type": "number"}, "minItems": n, "maxItems": n, "description": description})
-}
-
-fn closed_schema(title: &str, properties: Value) -> Value {
-    let required: Vec<&String> = properties.as_object().map(|m| m.keys().collect()).unwrap_or_default();
-    json!({
-        "$schema": slidetrack_session::JSON_SCHEMA_DIALECT,
-        "title": title,
-        "type": "object",
-        "properties": properties,
-        "required": required,
-        "additionalProperties": false,
-    })
-}
-
-/// The JSON Schema of `/robot/state`.
-pub fn robot_schema() -> Value {
-    let q = |d: &str| -> Value { json!({"type": "number", "description": d}) };
-    closed_schema(
-        "slidetrack.RobotState",
-        json!({
-            "joint_position_rad": number_array(7, "joint angles 1..7 (rad)"),
-            "joint_velocity_rad_s": number_array(7, "joint velocities 1..7 (rad/s)"),
-            "ee_position_in_base_m": number_array(3, "end-effector position in the base frame (m)"),
-            "ee_orientation_in_base": {
-                "type": "object",
-                "description": "base-from-end-effector rotation, quaternion",
-                "properties": {"x": q("vector part, x"), "y": q("vector part, y"), "z": q("vector part, z"), "w": q("scalar part")},
-                "required": ["x", "y", "z", "w"],
-                "additionalProperties": false,
-            },
-        }),
-    )
-}
 
 /// The tactile source of imported sessions: two 4x4 uSkin patches, taxel
 /// `i` (CSV `txl{i+1}`) at row `i / 4`, column `i % 4` as the dataset's
@@ -136,35 +64,17 @@ pub fn robot_schema() -> Value {
 /// sensor 1 and index = middle = sensor 2 (the pair opposite the thumb),
 /// each the mean of its patch.
 pub fn tactile_info(rate_hz: f64) -> TactileInfo {
-    let sensor = |i: usize| {
-        let finger = format!("unknown (xela_sensor{}.csv)", i + 1);
-        SensorLayout::grid(SENSOR_NAMES[i], SENSOR_MODEL, &finger, 4, 4)
-    };
-    TactileInfo {
-        device: format!("{RIG_NAME} CSV"),
-        rate_hz,
-        layout: TactileLayout { sensors: vec![sensor(0), sensor(1)] },
-        fingers: PerFinger {
-            thumb: FingerReading::mean(SENSOR_NAMES[0]),
-            index: FingerReading::mean(SENSOR_NAMES[1]),
-            middle: FingerReading::mean(SENSOR_NAMES[1]),
-        },
-    }
+    two_patch_info(RIG_NAME, rate_hz)
 }
 
 /// The `rig_config` of imported sessions: no hand-eye transform is known, so
 /// the "hand" frame is the wrist camera's own (identity placement) and the
 /// sliding axis is [`SLIDING_AXIS_IN_CAMERA`]; `label --axis config` uses it.
 pub fn rig_config_toml() -> String {
-    let [x, y, z] = SLIDING_AXIS_IN_CAMERA;
-    format!(
-        "# {RIG_NAME} import: the wrist camera's optical frame stands for the hand frame\n\
-         # (no hand-eye transform is known); the sliding axis is marker 1's principal\n\
-         # direction pooled over the dataset (docs/real-data.md).\n\
-         [camera]\n\
-         placement = {{ kind = \"pose\", translation_m = [0.0, 0.0, 0.0], quaternion_xyzw = [0.0, 0.0, 0.0, 1.0] }}\n\n\
-         [geometry]\n\
-         sliding_axis_in_hand = [{x:?}, {y:?}, {z:?}]\n"
+    wrist_camera_rig_config(
+        RIG_NAME,
+        SLIDING_AXIS_IN_CAMERA,
+        "marker 1's principal\n# direction pooled over the dataset (docs/real-data.md)",
     )
 }
 
@@ -194,7 +104,7 @@ pub struct ImportReport {
 
 /// The session file of `seq` in `out_dir`.
 pub fn session_path(out_dir: &Path, seq: &XelaSequence) -> PathBuf {
-    out_dir.join(format!("{}.mcap", seq.name))
+    session_file(out_dir, &seq.name)
 }
 
 /// The rows of one sequence, each file's row `i` (shared rows, then tails).
@@ -239,26 +149,13 @@ impl<'a> Rows<'a> {
 
 /// Channels of an imported session.
 struct Channels {
-    raw: ChannelHandle<TactileRaw>,
-    tare: ChannelHandle<TactileTare>,
-    zeroed: ChannelHandle<TactileZeroed>,
+    tactile: TactileChannels,
     aruco: ChannelHandle<ArucoDetection>,
     marker_pose: [ChannelHandle<Untyped>; 2],
     marker_tf: ChannelHandle<Untyped>,
     gripper: ChannelHandle<HandState>,
     robot: ChannelHandle<Untyped>,
     ee_pose: ChannelHandle<Untyped>,
-}
-
-fn json_channel(
-    rec: &Recorder,
-    topic: &str,
-    schema: &Value,
-    description: &str,
-) -> Result<ChannelHandle<Untyped>> {
-    let name = schema["title"].as_str().unwrap_or_default().to_string();
-    let meta = BTreeMap::from([("description".to_string(), description.to_string())]);
-    Ok(rec.register_channel(topic, &name, "jsonschema", &serde_json::to_vec(schema)?, "json", meta)?)
 }
 
 impl Channels {
@@ -270,9 +167,7 @@ impl Channels {
             json_channel(rec, MARKER_POSE_TOPICS[k], &pose_schema, &what)
         };
         Ok(Channels {
-            raw: rec.register::<TactileRaw>(TaxelLayout::new(info).channel_metadata())?,
-            tare: rec.register::<TactileTare>(BTreeMap::new())?,
-            zeroed: rec.register::<TactileZeroed>(BTreeMap::new())?,
+            tactile: TactileChannels::register(rec, info)?,
             aruco: rec.register::<ArucoDetection>(BTreeMap::new())?,
             marker_pose: [marker(0)?, marker(1)?],
             marker_tf: json_channel(
@@ -291,71 +186,6 @@ impl Channels {
     }
 }
 
-fn log_value(
-    rec: &Recorder,
-    ch: &ChannelHandle<Untyped>,
-    t: TimeNs,
-    seq: u32,
-    v: &impl Serialize,
-) -> Result<()> {
-    Ok(rec.log(ch, t, t, seq, serde_json::to_vec(v)?)?)
-}
-
-fn scan_of_patches(patches: [&PatchCounts; SENSORS]) -> Vec<[u16; 3]> {
-    patches.iter().flat_map(|p| p.iter().copied()).collect()
-}
-
-/// The mean of the first [`BASELINE_ROWS`] tactile rows, per taxel (counts).
-fn baseline(rows: &Rows<'_>) -> Result<Vec<[f64; 3]>> {
-    let mut sum = vec![[0.0; 3]; SENSORS * TAXELS];
-    let mut n = 0.0_f64;
-    for i in 0..BASELINE_ROWS {
-        let Some(patches) = rows.tactile(i)? else { break };
-        for (s, v) in sum.iter_mut().zip(scan_of_patches(patches)) {
-            for a in 0..3 {
-                s[a] += f64::from(v[a]);
-            }
-        }
-        n += 1.0;
-    }
-    Ok(sum.into_iter().map(|s| s.map(|v| v / n.max(1.0))).collect())
-}
-
-fn marker_detection(pose: Option<&MarkerPose>, axis: &Vector3<f64>) -> ArucoDetection {
-    let Some(p) = pose else { return ArucoDetection::missed() };
-    let [x, y, z, w] = p.orientation_in_camera_xyzw;
-    ArucoDetection {
-        detected: true,
-        marker_id: None,
-        corners_px: None,
-        position_in_camera_m: Some(p.position_in_camera_m),
-        orientation_in_camera: Some(Quaternion { x, y, z, w }),
-        position_on_axis_m: Some(axis.dot(&Vector3::from(p.position_in_camera_m))),
-        reprojection_error_px: None,
-    }
-}
-
-fn pose_of(t: TimeNs, frame: &str, position: [f64; 3], xyzw: [f64; 4]) -> PoseInFrame {
-    let [x, y, z, w] = xyzw;
-    let mut pose =
-        PoseInFrame { timestamp: FoxgloveTime::from(t), frame_id: frame.into(), ..PoseInFrame::default() };
-    pose.pose.position = XyzM { x: position[0], y: position[1], z: position[2] };
-    pose.pose.orientation = Quaternion { x, y, z, w };
-    pose
-}
-
-fn transform_of(t: TimeNs, child: &str, p: &MarkerPose) -> FrameTransform {
-    let [x, y, z, w] = p.orientation_in_camera_xyzw;
-    let [px, py, pz] = p.position_in_camera_m;
-    FrameTransform {
-        timestamp: FoxgloveTime::from(t),
-        parent_frame_id: CAMERA_FRAME.into(),
-        child_frame_id: child.into(),
-        translation: XyzM { x: px, y: py, z: pz },
-        rotation: Quaternion { x, y, z, w },
-    }
-}
-
 /// Writes the messages of every row; returns (fresh scans, markers seen).
 fn write_rows(
     rec: &Recorder,
@@ -364,42 +194,19 @@ fn write_rows(
     info: &TactileInfo,
 ) -> Result<(usize, [usize; 2])> {
     let frequency_hz = rows.seq.meta.frequency_hz;
-    let layout = &info.layout;
-    let base = baseline(rows)?;
+    let mut first = Vec::new();
+    for i in 0..BASELINE_ROWS {
+        let Some(patches) = rows.tactile(i)? else { break };
+        first.push(scan_of_patches(patches));
+    }
+    let mut tactile = TactileWriter::start(rec, &ch.tactile, &info.layout, &first)?;
     let axis = Vector3::from(SLIDING_AXIS_IN_CAMERA).normalize();
-    let samples = u32::try_from(BASELINE_ROWS.min(rows.count())).unwrap_or(u32::MAX);
-    rec.log_json(
-        &ch.tare,
-        TimeNs::ZERO,
-        TimeNs::ZERO,
-        0,
-        &TactileTare { samples, baseline: sensor_taxels(layout, &base) },
-    )?;
-    let (mut fresh, mut seen) = (0, [0, 0]);
-    let mut previous: Option<Vec<[u16; 3]>> = None;
+    let mut seen = [0, 0];
     for i in 0..rows.count() {
         let t = TimeNs::from_secs_f64(i as f64 / frequency_hz);
-        let seq = u32::try_from(i).unwrap_or(u32::MAX);
+        let seq = sequence_of(i);
         if let Some(patches) = rows.tactile(i)? {
-            let scan = scan_of_patches(patches);
-            let raw = TactileRaw { sequence: i as u64, sensors: sensor_taxels(layout, &scan) };
-            rec.log_json(&ch.raw, t, t, seq, &raw)?;
-            if previous.as_ref() != Some(&scan) {
-                let zeroed: Vec<[f64; 3]> = scan
-                    .iter()
-                    .zip(&base)
-                    .map(|(v, b)| std::array::from_fn(|a| f64::from(v[a]) - b[a]))
-                    .collect();
-                rec.log_json(
-                    &ch.zeroed,
-                    t,
-                    t,
-                    seq,
-                    &TactileZeroed { sensors: sensor_taxels(layout, &zeroed) },
-                )?;
-                fresh += 1;
-            }
-            previous = Some(scan);
+            tactile.write(rec, t, i, scan_of_patches(patches))?;
         }
         if let Some(markers) = rows.markers(i) {
             rec.log_json(&ch.aruco, t, t, seq, &marker_detection(markers[0].as_ref(), &axis))?;
@@ -420,7 +227,7 @@ fn write_rows(
             log_value(rec, &ch.ee_pose, t, seq, &ee)?;
         }
     }
-    Ok((fresh, seen))
+    Ok((tactile.fresh, seen))
 }
 
 /// The `slidetrack` metadata record of `seq`.
@@ -482,25 +289,11 @@ pub fn import_sequence(
     options: ImportOptions,
 ) -> Result<ImportReport> {
     let path = session_path(out_dir, seq);
-    if path.exists() && !options.overwrite {
-        bail!("{} already exists; pass --overwrite to replace it", path.display());
-    }
     let rows = Rows { seq };
     let count = rows.count();
     let info = tactile_info(seq.meta.frequency_hz);
-    let tmp = out_dir.join(format!(".{}.mcap.partial-{}", seq.name, std::process::id()));
-    let written = write_session(seq, source, &rows, &info, &tmp);
-    let (fresh_scans, markers_seen) = match written {
-        Ok(counts) => counts,
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(e);
-        }
-    };
-    std::fs::rename(&tmp, &path).with_context(|| {
-        let _ = std::fs::remove_file(&tmp);
-        format!("cannot write {}", path.display())
-    })?;
+    let (fresh_scans, markers_seen) =
+        write_atomically(&path, options.overwrite, |tmp| write_session(seq, source, &rows, &info, tmp))?;
     Ok(ImportReport {
         path,
         rows: count,

@@ -1,7 +1,8 @@
-//! File-level helpers of the xela-imanlab reader: CSV tables with line
-//! numbers, strict field parsing, the `meta_data.csv.npy` string and the
-//! wall-clock times of `meta_data.csv`. Every error is one line naming the
-//! file, the line and the column.
+//! File-level helpers of the CSV readers ([`super::xela_csv`],
+//! [`super::xela_psc`]): CSV tables with line numbers, exact headers, strict
+//! field parsing, the `meta_data.csv.npy` string and the wall-clock times of
+//! `meta_data.csv`. Every error is one line naming the file, the line and the
+//! column.
 
 use std::fs;
 use std::path::Path;
@@ -10,7 +11,7 @@ use anyhow::{Context, Result, anyhow, bail};
 
 /// One CSV data row: its line number in the file (1-based, the header is
 /// line 1) and its fields.
-pub(super) struct Row {
+pub(crate) struct Row {
     /// Line number in the file (1-based).
     pub line: u64,
     /// The fields, as written.
@@ -18,7 +19,7 @@ pub(super) struct Row {
 }
 
 /// A whole CSV file: its header and its data rows in file order.
-pub(super) struct Table {
+pub(crate) struct Table {
     /// Column names of the first line.
     pub header: Vec<String>,
     /// Data rows, each with as many fields as the header (checked).
@@ -27,7 +28,7 @@ pub(super) struct Table {
 
 /// Reads a comma-separated file with a header line; every row must have as
 /// many fields as the header.
-pub(super) fn read_table(path: &Path) -> Result<Table> {
+pub(crate) fn read_table(path: &Path) -> Result<Table> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
@@ -58,7 +59,7 @@ pub(super) fn read_table(path: &Path) -> Result<Table> {
 
 /// Fails unless the header is exactly `expected`, naming the first column
 /// that differs.
-pub(super) fn check_header(path: &Path, header: &[String], expected: &[&str]) -> Result<()> {
+pub(crate) fn check_header(path: &Path, header: &[String], expected: &[&str]) -> Result<()> {
     for (col, want) in expected.iter().enumerate() {
         match header.get(col) {
             Some(got) if got == want => {}
@@ -78,9 +79,34 @@ pub(super) fn check_header(path: &Path, header: &[String], expected: &[&str]) ->
     Ok(())
 }
 
+/// The data rows of a file with the expected header, each parsed by `row`;
+/// a file without data rows is an error.
+pub(crate) fn read_rows<T>(
+    path: &Path,
+    expected: &[&str],
+    mut row: impl FnMut(&Path, &[String], &Row) -> Result<T>,
+) -> Result<Vec<T>> {
+    let table = read_table(path)?;
+    check_header(path, &table.header, expected)?;
+    if table.rows.is_empty() {
+        bail!("{}: no data rows", path.display());
+    }
+    table.rows.iter().map(|r| row(path, &table.header, r)).collect()
+}
+
+/// The fields of a row as finite numbers (the row has `N` fields: checked by
+/// the header).
+pub(crate) fn numbers<const N: usize>(path: &Path, header: &[String], row: &Row) -> Result<[f64; N]> {
+    let mut out = [0.0; N];
+    for (col, (slot, value)) in out.iter_mut().zip(row.fields.iter()).enumerate() {
+        *slot = parse_f64(At { path, line: row.line, col, name: &header[col] }, value)?;
+    }
+    Ok(out)
+}
+
 /// Where a field is, for error messages.
 #[derive(Clone, Copy)]
-pub(super) struct At<'a> {
+pub(crate) struct At<'a> {
     /// The file.
     pub path: &'a Path,
     /// Line number (1-based).
@@ -92,7 +118,7 @@ pub(super) struct At<'a> {
 }
 
 impl At<'_> {
-    fn error(&self, what: &str, value: &str) -> anyhow::Error {
+    pub(crate) fn error(&self, what: &str, value: &str) -> anyhow::Error {
         anyhow!(
             "{}:{}: column {} ({}): {what}: {value:?}",
             self.path.display(),
@@ -104,7 +130,7 @@ impl At<'_> {
 }
 
 /// Parses a finite number.
-pub(super) fn parse_f64(at: At<'_>, value: &str) -> Result<f64> {
+pub(crate) fn parse_f64(at: At<'_>, value: &str) -> Result<f64> {
     match value.trim().parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(at.error("not a finite number", value)),
@@ -114,7 +140,7 @@ pub(super) fn parse_f64(at: At<'_>, value: &str) -> Result<f64> {
 
 /// Parses a raw 16-bit count written as a float (`49198.0`): it must be a
 /// whole number in 0..=65535.
-pub(super) fn parse_count(at: At<'_>, value: &str) -> Result<u16> {
+pub(crate) fn parse_count(at: At<'_>, value: &str) -> Result<u16> {
     let v = parse_f64(at, value)?;
     if v.fract() != 0.0 || !(0.0..=f64::from(u16::MAX)).contains(&v) {
         return Err(at.error("not a whole 16-bit count", value));
@@ -123,7 +149,7 @@ pub(super) fn parse_count(at: At<'_>, value: &str) -> Result<u16> {
 }
 
 /// Parses a `0`/`1` flag.
-pub(super) fn parse_flag(at: At<'_>, value: &str) -> Result<bool> {
+pub(crate) fn parse_flag(at: At<'_>, value: &str) -> Result<bool> {
     match value.trim() {
         "0" => Ok(false),
         "1" => Ok(true),
@@ -133,7 +159,7 @@ pub(super) fn parse_flag(at: At<'_>, value: &str) -> Result<bool> {
 
 /// Parses `YYYY-MM-DD HH:MM:SS[.ffffff]` (Python's `str(datetime)`, no time
 /// zone) into seconds since 1970-01-01 00:00:00 of the same clock.
-pub(super) fn parse_wall_time_s(at: At<'_>, value: &str) -> Result<f64> {
+pub(crate) fn parse_wall_time_s(at: At<'_>, value: &str) -> Result<f64> {
     wall_time_s(value.trim()).ok_or_else(|| at.error("not a YYYY-MM-DD HH:MM:SS.ffffff time", value))
 }
 
@@ -175,7 +201,7 @@ fn days_from_civil(year: i64, month: i64, day: i64) -> i64 {
 
 /// Reads a NumPy `.npy` file holding one unicode string (dtype `<U{n}`,
 /// shape `()`), as `np.save(path, "text")` writes it.
-pub(super) fn read_npy_string(path: &Path) -> Result<String> {
+pub(crate) fn read_npy_string(path: &Path) -> Result<String> {
     let bytes = fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
     npy_string(&bytes).map_err(|why| anyhow!("{}: not a NumPy unicode scalar: {why}", path.display()))
 }
