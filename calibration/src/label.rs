@@ -7,13 +7,14 @@
 
 use std::path::{Path, PathBuf};
 
+use slidetrack_core::Phase;
 use slidetrack_core::TimeNs;
 use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams};
 use slidetrack_estimators::cv_tune::{TunedNoise, log_likelihood, tune_noise, tune_noise_jointly};
 use slidetrack_session::{
-    ArucoDetection, ChannelMessage, GroundTruthMeasurement, GroundTruthSliding, MessageReader, NewChannel,
-    ProtocolEvent, ReadOptions, SESSION_METADATA, SessionError, SessionInfo, SimTruth, TactileRaw,
-    rewrite_session,
+    ArucoDetection, ChannelMessage, GroundTruthMeasurement, GroundTruthPlanar, GroundTruthPose,
+    GroundTruthSliding, MessageReader, NewChannel, ProtocolEvent, ReadOptions, SESSION_METADATA,
+    SessionError, SessionInfo, SimTruth, TactileRaw, TactileZeroed, rewrite_session,
 };
 use thiserror::Error;
 
@@ -21,9 +22,11 @@ use crate::ground_truth::{
     AxisSource, GroundTruth, GroundTruthError, Measurements, Rmse, marker_positions, parameters_record,
     rmse_against_truth, smooth_ground_truth,
 };
+use crate::in_hand::session::{in_hand_channels, label_in_hand};
+use crate::in_hand::{ContactFrame, InHandOptions, PoseParamsRecord};
 
 /// How to label.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct LabelOptions {
     /// The smoother's parameters.
     pub params: CvSmootherParams,
@@ -38,6 +41,14 @@ pub struct LabelOptions {
     pub tuning: Tuning,
     /// The channels written (and replaced).
     pub slot: GroundTruthSlot,
+    /// Also label the motion in the hand (`/ground_truth/pose`,
+    /// `/ground_truth/planar`) when the detections carry poses and the slot
+    /// is the default one; `None`: not.
+    pub in_hand: Option<InHandOptions>,
+    /// How the in-hand parameters were found when they were estimated over
+    /// several sessions ([`crate::in_hand::session::in_hand_jointly`]), in
+    /// words; `None`: given or tuned here.
+    pub in_hand_joint: Option<String>,
 }
 
 /// Where the smoother's noise parameters come from.
@@ -132,6 +143,27 @@ pub struct LabelReport {
     /// (the gated form of [`log_likelihood`]): compare parameter choices on
     /// sessions they were not tuned on by it, without a true trajectory.
     pub log_likelihood: f64,
+    /// The motion in the hand, when it was labelled.
+    pub in_hand: Option<InHandSummary>,
+}
+
+/// What the in-hand labelling of a session found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InHandSummary {
+    /// Scans with a pose (from the marker's first sighting to its last).
+    pub poses: usize,
+    /// Marker poses measured.
+    pub measured: usize,
+    /// Marker poses the gate rejected.
+    pub rejected: usize,
+    /// The log-likelihood of the marker poses at the parameters used.
+    pub log_likelihood: f64,
+    /// Scans of the hold (with a planar state).
+    pub hold_scans: usize,
+    /// The pose smoother's parameters used.
+    pub params: PoseParamsRecord,
+    /// The contact frame used.
+    pub contact: Option<ContactFrame>,
 }
 
 /// Why a session could not be labelled. The file is unchanged in every case.
@@ -180,13 +212,24 @@ pub struct SessionInputs {
     pub release: Option<TimeNs>,
     /// The `rig_config` metadata (TOML), if any.
     pub rig_config: Option<String>,
+    /// The normal load at every `/tactile/zeroed` scan: the sum of every
+    /// taxel's baseline-subtracted z (counts).
+    pub loads: Vec<(TimeNs, f64)>,
+    /// When the sliding cycles began, from `/protocol/events`.
+    pub cycles: Option<TimeNs>,
 }
 
 /// Reads what labelling needs in one pass over the file.
 pub fn read_inputs(path: &Path, options: ReadOptions) -> Result<SessionInputs, SessionError> {
     let info = SessionInfo::read(path, options)?;
     let rig_config = info.metadata.get(SESSION_METADATA).and_then(|m| m.get("rig_config")).cloned();
-    let topics = [TactileRaw::TOPIC, ArucoDetection::TOPIC, SimTruth::TOPIC, ProtocolEvent::TOPIC];
+    let topics = [
+        TactileRaw::TOPIC,
+        ArucoDetection::TOPIC,
+        SimTruth::TOPIC,
+        ProtocolEvent::TOPIC,
+        TactileZeroed::TOPIC,
+    ];
     let mut inputs = SessionInputs { rig_config, ..SessionInputs::default() };
     let mut detections = Vec::new();
     let mut reader = MessageReader::open(path, &topics, options)?;
@@ -206,10 +249,18 @@ pub fn read_inputs(path: &Path, options: ReadOptions) -> Result<SessionInputs, S
             SimTruth::TOPIC => {
                 inputs.truth.push((m.log_time, serde_json::from_slice(&m.data).map_err(decode)?))
             }
+            TactileZeroed::TOPIC => {
+                let z: TactileZeroed = serde_json::from_slice(&m.data).map_err(decode)?;
+                let load = z.sensors.iter().flat_map(|s| &s.taxels).map(|t| t.z).sum();
+                inputs.loads.push((m.log_time, load));
+            }
             _ => {
                 let event: ProtocolEvent = serde_json::from_slice(&m.data).map_err(decode)?;
                 if inputs.release.is_none() && event.ends_cycles() {
                     inputs.release = Some(m.log_time);
+                }
+                if inputs.cycles.is_none() && event.phase == Phase::Cycles && !event.abort {
+                    inputs.cycles = Some(m.log_time);
                 }
             }
         }
@@ -371,7 +422,24 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
         params: fit.params,
         tuned: options.tuning != Tuning::Off,
         log_likelihood: fit.log_likelihood,
+        in_hand: None,
     };
+    let in_hand = match (&options.in_hand, options.slot) {
+        (Some(o), GroundTruthSlot::Default) => {
+            label_in_hand(&inputs, o, options.tuning == Tuning::PerSession)
+                .map_err(|e| gt_err(GroundTruthError::from(e)))?
+        }
+        _ => None,
+    };
+    report.in_hand = in_hand.as_ref().map(|l| InHandSummary {
+        poses: l.session.track.scans.len(),
+        measured: l.session.track.measured,
+        rejected: l.session.track.rejected,
+        log_likelihood: l.session.track.log_likelihood,
+        hold_scans: l.planar.len(),
+        params: PoseParamsRecord::from(&l.params),
+        contact: l.frame.clone(),
+    });
     if options.dry_run {
         return Ok(report);
     }
@@ -389,10 +457,23 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
     for (t, m) in &used {
         measurement_channel.push_json(*t, m).map_err(encode)?;
     }
-    // Only this slot's channels: the other slot's ground truth stays.
+    let mut channels = vec![sliding_channel, measurement_channel];
+    if let Some(l) = &in_hand {
+        let how = options.in_hand_joint.clone().unwrap_or_else(|| l.how.clone());
+        channels.extend(in_hand_channels(l, &how).map_err(encode)?);
+    }
+    // Only this slot's channels: the other slot's ground truth stays; the
+    // in-hand channels are the default slot's.
     let slot = options.slot;
-    let replaced = |topic: &str| topic == slot.sliding_topic() || topic == slot.measurements_topic();
-    rewrite_session(path, read, &replaced, vec![sliding_channel, measurement_channel])?;
+    let in_hand_topics = [GroundTruthPose::TOPIC, GroundTruthPlanar::TOPIC];
+    let replaced = |topic: &str| {
+        topic == slot.sliding_topic()
+            || topic == slot.measurements_topic()
+            || (slot == GroundTruthSlot::Default
+                && options.in_hand.is_some()
+                && in_hand_topics.contains(&topic))
+    };
+    rewrite_session(path, read, &replaced, channels)?;
     report.written = true;
     Ok(report)
 }

@@ -9,6 +9,7 @@ pub mod camera_info;
 pub mod codec;
 pub mod error;
 pub mod ground_truth;
+pub mod in_hand;
 pub mod label;
 pub mod marker_tool;
 pub mod pose;

@@ -144,6 +144,32 @@ fn truth_values(source: TruthSource, data: &[u8]) -> serde_json::Result<Vec<f64>
     }
 }
 
+/// Fewest tactile scans a session must have to be trained or scored on.
+pub const MIN_SCANS: usize = 10;
+
+/// A session with fewer than [`MIN_SCANS`] scans to use: before the
+/// release, or in the hold (planar truth; a grasp lost at once).
+#[derive(Debug, thiserror::Error)]
+#[error("{}: only {scans} tactile scans {what}", path.display())]
+pub struct TooFewScans {
+    /// The file.
+    pub path: PathBuf,
+    /// The scans it has.
+    pub scans: usize,
+    /// Where they were counted.
+    pub what: &'static str,
+}
+
+/// [`load`], but `Ok(None)` for a session with too few scans
+/// ([`TooFewScans`]): training and scoring many sessions skip it (and say so).
+pub fn load_unless_short(path: &Path, truth: Option<TruthSource>) -> Result<Option<SessionData>> {
+    match load(path, truth) {
+        Ok(d) => Ok(Some(d)),
+        Err(e) if e.is::<TooFewScans>() => Ok(None),
+        Err(e) => Err(e),
+    }
+}
+
 /// One session's data at the tactile rate, from the first baseline-subtracted
 /// scan to the release.
 #[derive(Clone, Debug)]
@@ -159,7 +185,8 @@ pub struct SessionData {
     pub zeroed: Vec<[f64; 3]>,
     /// Truth per scan, [`TruthSource::dim`] components each in SI units
     /// (`(p, v)` in m and m/s; planar: m, rad, m/s, rad/s), scan after
-    /// scan, when the session has it.
+    /// scan, when the session has it; NaN at the scans of the hold the
+    /// planar truth leaves out (marker gaps).
     pub truth: Option<Vec<f64>>,
     /// Components of one truth sample.
     pub truth_dim: usize,
@@ -234,8 +261,9 @@ pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
         first = recorded.times.iter().take_while(|t| **t < from).count();
         scans = scans.min(recorded.times.iter().take_while(|t| **t <= to).count());
     }
-    if scans < first + 10 {
-        bail!("{}: only {} tactile scans before the release", path.display(), scans.saturating_sub(first));
+    if scans < first + MIN_SCANS {
+        let what = if truth == Some(TruthSource::Planar) { "in the hold" } else { "before the release" };
+        return Err(TooFewScans { path: path.to_path_buf(), scans: scans.saturating_sub(first), what }.into());
     }
     let times = recorded.times[first..scans].to_vec();
     let n = tactile.layout.taxel_count();
@@ -259,10 +287,13 @@ pub fn load(path: &Path, truth: Option<TruthSource>) -> Result<SessionData> {
                 recorded.truth.iter().map(|(t, r)| (t.0, r)).collect();
             let mut flat = Vec::with_capacity(times.len() * source.dim());
             for t in &times {
-                let v = by_time.get(&t.0).with_context(|| {
-                    format!("{}: {} does not cover every tactile scan", path.display(), source.topic())
-                })?;
-                flat.extend_from_slice(v);
+                match by_time.get(&t.0) {
+                    Some(v) => flat.extend_from_slice(v),
+                    // The planar truth leaves out scans where the marker
+                    // was not seen for long: no truth there.
+                    None if source == TruthSource::Planar => flat.extend([f64::NAN; 6]),
+                    None => bail!("{}: {} does not cover every tactile scan", path.display(), source.topic()),
+                }
             }
             Some(flat)
         }

@@ -141,8 +141,10 @@ fn selection_score(model: &DekfModel, data: &SessionData) -> Result<f64> {
             let (mut sq, mut n) = (0.0, 0usize);
             for (k, (_, o)) in outputs.iter().enumerate() {
                 let Some(x) = truth.truth_at(k) else { break };
-                sq += (0..3).map(|i| (o.mean[i] - x[i]).powi(2)).sum::<f64>();
-                n += 1;
+                if x.iter().all(|v| v.is_finite()) {
+                    sq += (0..3).map(|i| (o.mean[i] - x[i]).powi(2)).sum::<f64>();
+                    n += 1;
+                }
             }
             Ok((sq / n.max(1) as f64).sqrt())
         }

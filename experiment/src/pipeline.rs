@@ -134,6 +134,10 @@ pub fn label(files: &[PathBuf], protocol: Protocol, threads: usize, stop: &Atomi
         dry_run: false,
         tuning: Tuning::Off,
         slot: protocol.slot(),
+        // The sliding ground truth only: the demo and the study train the
+        // thesis's state.
+        in_hand: None,
+        in_hand_joint: None,
     };
     parallel("label", files, threads, stop, |f| {
         label_session(f, &options).with_context(|| format!("cannot label {}", f.display()))?;

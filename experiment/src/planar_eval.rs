@@ -11,7 +11,7 @@ use serde::Serialize;
 use slidetrack_core::TimeNs;
 use slidetrack_estimators::dekf::{DekfModel, DekfOutput, StateKind};
 
-use crate::dataset::{SessionData, TruthSource, load};
+use crate::dataset::{SessionData, TruthSource, load_unless_short};
 use crate::dekf_eval::first_step;
 use crate::dekf_run::{model_units, run};
 use crate::linear_baseline::LinearBaseline;
@@ -121,6 +121,8 @@ pub struct PlanarReport {
     pub beats_linear: Option<Wins>,
     /// Per session.
     pub sessions: Vec<PlanarSessionScores>,
+    /// Sessions not scored: fewer than [`crate::dataset::MIN_SCANS`] scans in the hold.
+    pub skipped: Vec<String>,
 }
 
 /// The three estimators' squared errors on one session, plus the maxima.
@@ -177,6 +179,10 @@ fn session_sums(
     let zero = [0.0; 6];
     for (t, o) in outputs {
         let Some(truth) = index.get(&t.0).and_then(|&k| to_model(k, &origin)) else { continue };
+        // No truth where the marker was not seen for long.
+        if !truth.iter().all(|v| v.is_finite()) {
+            continue;
+        }
         sums.dekf.add(&o.mean, &truth);
         sums.zero.add(&zero, &truth);
         if let (Some(l), Some(p)) = (sums.linear.as_mut(), predicted.as_ref()) {
@@ -226,9 +232,12 @@ pub fn evaluate_planar(
     }
     let (mut pooled, mut pooled_zero, mut pooled_linear) = (Sums::default(), Sums::default(), None::<Sums>);
     let mut max = [0.0f64; 2];
-    let mut sessions = Vec::new();
+    let (mut sessions, mut skipped) = (Vec::new(), Vec::new());
     for f in files {
-        let data = load(f, Some(TruthSource::Planar))?;
+        let Some(data) = load_unless_short(f, Some(TruthSource::Planar))? else {
+            skipped.push(f.display().to_string());
+            continue;
+        };
         let s = session_sums(&run(model, &data)?, &data, linear)?;
         pooled.merge(&s.dekf);
         pooled_zero.merge(&s.zero);
@@ -266,6 +275,7 @@ pub fn evaluate_planar(
         pooled,
         mean,
         sessions,
+        skipped,
     })
 }
 
@@ -343,5 +353,8 @@ pub fn planar_table(r: &PlanarReport) -> String {
         "\nbetter than zero motion on {} of {} sessions in translation, {} in rotation, {} in both\n",
         z.translation, z.sessions, z.rotation, z.both
     );
+    for s in &r.skipped {
+        out += &format!("skipped (fewer than {} scans in the hold): {s}\n", crate::dataset::MIN_SCANS);
+    }
     out
 }

@@ -144,6 +144,35 @@ pub struct LabelArgs {
     /// Print a JSON summary per file instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Do not label the motion in the hand (`/ground_truth/pose` and
+    /// `/ground_truth/planar`, written by default when the marker
+    /// detections carry orientations).
+    #[arg(long)]
+    pub no_in_hand: bool,
+    /// Label the motion in the hand with the pose smoother's parameters and
+    /// the contact frame of FILE (written by `--save-in-hand`), neither
+    /// tuned nor estimated here: a test split labelled with what the
+    /// training split gave.
+    #[arg(long, value_name = "FILE", conflicts_with = "no_in_hand")]
+    pub in_hand: Option<PathBuf>,
+    /// With --jointly: write the pose smoother's parameters and the contact
+    /// frame estimated over the files to FILE (JSON).
+    #[arg(long, value_name = "FILE", requires = "jointly", conflicts_with = "in_hand")]
+    pub save_in_hand: Option<PathBuf>,
+    /// The camera's pose in the hand frame, `X,Y,Z,QX,QY,QZ,QW` (m,
+    /// quaternion); default: the rig configuration's camera placement when
+    /// the session has one, else the identity (a camera riding on the hand,
+    /// as on the imanlab rigs).
+    #[arg(long, value_name = "X,Y,Z,QX,QY,QZ,QW", value_delimiter = ',', num_args = 7)]
+    pub hand_from_camera: Option<Vec<f64>>,
+    /// Recordings without the protocol: the normal load (sum of the
+    /// baseline-subtracted z counts of every taxel) at which the hold begins.
+    #[arg(long, value_name = "COUNTS", default_value_t = slidetrack_estimators::slip::DEFAULT_CONTACT_LOAD_COUNTS)]
+    pub contact_load: f64,
+    /// Recordings without the protocol: time after the contact load is
+    /// reached before the hold counts (s), while the gripper still closes.
+    #[arg(long, value_name = "S", default_value_t = slidetrack_calibration::in_hand::hold::DEFAULT_SETTLE_S)]
+    pub hold_settle: f64,
 }
 
 /// Arguments of `devices`.

@@ -1,15 +1,20 @@
 //! `slidetrack label`: ground truth from the ArUco marker, written into each session.
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde_json::json;
 use slidetrack_calibration::ground_truth::{
     AxisSource, DEFAULT_GATE_MAHALANOBIS2, default_params, gate, thesis_params,
 };
+use slidetrack_calibration::in_hand::session::in_hand_jointly;
+use slidetrack_calibration::in_hand::{ContactSource, InHandOptions, InHandRecord};
+use slidetrack_calibration::label::read_inputs;
 use slidetrack_calibration::label::{
     GroundTruthSlot, JointTuning, LabelOptions, LabelReport, Tuning, label_session, tune_sessions,
 };
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_session::ReadOptions;
 
 use crate::cli::{AxisArg, LabelArgs, SlotArg};
 
@@ -28,6 +33,8 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
             SlotArg::Default => GroundTruthSlot::Default,
             SlotArg::Thesis => GroundTruthSlot::Thesis,
         },
+        in_hand: in_hand_options(args)?,
+        in_hand_joint: None,
     };
     let joint = if args.jointly {
         let (params, joint) = tune_sessions(&args.files, &options)?;
@@ -39,6 +46,29 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
         Some(joint)
     } else {
         None
+    };
+    let joint_in_hand = match (args.jointly, options.in_hand.as_mut()) {
+        (true, Some(o)) => {
+            let read = ReadOptions { recover: args.recover };
+            let inputs = args.files.iter().map(|f| read_inputs(f, read)).collect::<Result<Vec<_>, _>>()?;
+            let record = in_hand_jointly(&inputs, o, true)?;
+            if let Some(record) = &record {
+                o.params = (&record.pose).into();
+                o.contact = ContactSource::Given(record.contact.clone());
+                options.in_hand_joint = Some(record.how.clone());
+                if !args.json {
+                    println!("{}", in_hand_text(record));
+                }
+                if let Some(path) = &args.save_in_hand {
+                    std::fs::write(path, serde_json::to_string_pretty(record)?)
+                        .with_context(|| format!("cannot write {}", path.display()))?;
+                }
+            } else if args.save_in_hand.is_some() {
+                bail!("no session has a hold with marker poses: nothing to save in --save-in-hand");
+            }
+            record
+        }
+        _ => None,
     };
     let bar = if quiet || args.files.len() < 2 {
         ProgressBar::hidden()
@@ -73,7 +103,11 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
     bar.finish_and_clear();
     if args.json {
         let out = match joint {
-            Some(j) => json!({ "joint_tuning": joint_json(&options.params, &j), "sessions": summaries }),
+            Some(j) => json!({
+                "joint_tuning": joint_json(&options.params, &j),
+                "in_hand": joint_in_hand,
+                "sessions": summaries,
+            }),
             None => serde_json::Value::Array(summaries),
         };
         println!("{}", serde_json::to_string_pretty(&out)?);
@@ -87,6 +121,56 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The in-hand labelling `args` ask for (`None` with `--no-in-hand`).
+fn in_hand_options(args: &LabelArgs) -> Result<Option<InHandOptions>> {
+    if args.no_in_hand {
+        return Ok(None);
+    }
+    let mut o = InHandOptions::default();
+    if let Some(path) = &args.in_hand {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let record: InHandRecord = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a --save-in-hand file", path.display()))?;
+        o.params = (&record.pose).into();
+        o.contact = ContactSource::Given(record.contact);
+    }
+    if let Some(g) = o.params.gate.as_mut() {
+        g.reacquire_after = (args.reacquire_after > 0).then_some(args.reacquire_after);
+    }
+    if let Some(v) = &args.hand_from_camera {
+        let q =
+            UnitQuaternion::try_new(Quaternion::new(v[6], v[3], v[4], v[5]), 1e-9).with_context(|| {
+                format!("--hand-from-camera: the quaternion {:?} has no usable norm", &v[3..])
+            })?;
+        o.hand_from_camera = Some(Isometry3::from_parts(Translation3::new(v[0], v[1], v[2]), q));
+    }
+    if !(args.contact_load.is_finite() && args.contact_load > 0.0) {
+        bail!("--contact-load must be a positive number of counts, got {}", args.contact_load);
+    }
+    if !(args.hold_settle.is_finite() && args.hold_settle >= 0.0) {
+        bail!("--hold-settle must be a non-negative number of seconds, got {}", args.hold_settle);
+    }
+    o.hold.detector.contact_load_counts = args.contact_load;
+    o.hold.settle_s = args.hold_settle;
+    Ok(Some(o))
+}
+
+/// The joint in-hand estimate in a few lines.
+fn in_hand_text(r: &InHandRecord) -> String {
+    let c = &r.contact;
+    let f = |v: [f64; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
+    format!(
+        "in the hand: pose noise {:.2} mm, {:.2} deg; contact normal {}, x axis {}, grip point {} m\n  {}",
+        r.pose.r_position_m2.sqrt() * 1e3,
+        r.pose.r_orientation_rad2.sqrt().to_degrees(),
+        f(c.normal),
+        f(c.x_axis),
+        f(c.origin_m),
+        c.how
+    )
 }
 
 /// The defaults with the command line's overrides, checked.
@@ -166,8 +250,18 @@ fn to_text(r: &LabelReport) -> String {
     } else {
         String::new()
     };
+    let in_hand = r.in_hand.as_ref().map_or(String::new(), |h| {
+        format!(
+            "\n  in the hand: {} poses ({} marker poses, {} rejected), hold of {} scans{}",
+            h.poses,
+            h.measured,
+            h.rejected,
+            h.hold_scans,
+            if h.contact.is_none() { " (no contact frame)" } else { "" }
+        )
+    });
     format!(
-        "{}: {} scans {action}; {} camera frames, {} marker positions ({} missing), {} outliers rejected{rmse}{tuned}",
+        "{}: {} scans {action}; {} camera frames, {} marker positions ({} missing), {} outliers rejected{rmse}{tuned}{in_hand}",
         r.path.display(),
         r.samples,
         r.frames,
@@ -196,6 +290,15 @@ fn to_json(r: &LabelReport) -> serde_json::Value {
             "tuned": r.tuned,
             "log_likelihood": r.log_likelihood,
         },
+        "in_hand": r.in_hand.as_ref().map(|h| json!({
+            "poses": h.poses,
+            "marker_poses": h.measured,
+            "rejected_poses": h.rejected,
+            "log_likelihood": h.log_likelihood,
+            "hold_scans": h.hold_scans,
+            "pose_smoother": h.params,
+            "contact": h.contact,
+        })),
         "rmse": r.rmse.map(|e| json!({
             "position_m": e.position_m,
             "velocity_mps": e.velocity_mps,

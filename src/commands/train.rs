@@ -4,7 +4,9 @@ use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use slidetrack_estimators::dekf::{Architecture, StateKind};
-use slidetrack_experiment::dataset::{ChannelSet, SessionData, TruthSource, expand, load};
+use slidetrack_experiment::dataset::{
+    ChannelSet, MIN_SCANS, SessionData, TruthSource, expand, load, load_unless_short,
+};
 use slidetrack_experiment::dekf_run::save_model;
 use slidetrack_experiment::dekf_train::{TrainSpec, Trained, fit_sessions, parse_schedule};
 use slidetrack_experiment::linear_baseline::{LinearBaseline, path_for};
@@ -84,7 +86,22 @@ pub fn fit(args: &TrainArgs, quiet: bool) -> Result<(Trained, Option<LinearBasel
     let spec = spec(args)?;
     let files = expand(&args.sessions)?;
     let truth = spec.truth.for_state(spec.state);
-    let sessions = files.iter().map(|f| load(f, Some(truth))).collect::<Result<Vec<_>>>()?;
+    let sessions = if truth == TruthSource::Planar {
+        // A grasp lost at once leaves a hold too short to train on.
+        let mut kept = Vec::new();
+        for f in &files {
+            match load_unless_short(f, Some(truth))? {
+                Some(d) => kept.push(d),
+                None => eprintln!(
+                    "warning: {}: skipped, fewer than {MIN_SCANS} tactile scans in the hold",
+                    f.display()
+                ),
+            }
+        }
+        kept
+    } else {
+        files.iter().map(|f| load(f, Some(truth))).collect::<Result<Vec<_>>>()?
+    };
     let trained = fit_with_progress(&spec, &sessions, quiet)?;
     let linear = (!args.no_linear).then(|| LinearBaseline::fit(&trained.model, &sessions)).transpose()?;
     Ok((trained, linear))

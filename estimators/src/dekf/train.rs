@@ -142,10 +142,13 @@ impl Adam {
     }
 }
 
-/// The window starts of a sequence of `len` steps: consecutive
-/// subsequences of `length` steps.
-fn starts(len: usize, length: usize) -> impl Iterator<Item = usize> {
-    (0..len.saturating_sub(length)).step_by(length)
+/// The window starts of `sequence`: consecutive subsequences of `length`
+/// steps, each starting at a step with a truth (every step of a sliding
+/// sequence; a planar one has none where the marker was not seen).
+fn starts(sequence: &Sequence, length: usize) -> impl Iterator<Item = usize> + '_ {
+    (0..sequence.len().saturating_sub(length))
+        .step_by(length)
+        .filter(|&t| sequence.truth_at(t)[0].is_finite())
 }
 
 /// The batches of one epoch, `(sequence, start)` each: every sequence cut
@@ -160,11 +163,8 @@ fn epoch_batches(
     let batch_size = batch_size.max(1);
     match batching {
         Batching::Windows => {
-            let mut w: Vec<(usize, usize)> = data
-                .iter()
-                .enumerate()
-                .flat_map(|(i, s)| starts(s.len(), length).map(move |t0| (i, t0)))
-                .collect();
+            let mut w: Vec<(usize, usize)> =
+                data.iter().enumerate().flat_map(|(i, s)| starts(s, length).map(move |t0| (i, t0))).collect();
             w.shuffle(rng);
             w.chunks(batch_size).map(<[(usize, usize)]>::to_vec).collect()
         }
@@ -174,12 +174,13 @@ fn epoch_batches(
             let mut batches = Vec::new();
             for set in order.chunks(batch_size) {
                 let longest = set.iter().map(|&i| data[i].len()).max().unwrap_or(0);
-                let mut positions: Vec<usize> = starts(longest, length).collect();
+                let mut positions: Vec<usize> = (0..longest.saturating_sub(length)).step_by(length).collect();
                 positions.shuffle(rng);
                 for t0 in positions {
                     let batch: Vec<(usize, usize)> = set
                         .iter()
                         .filter(|&&i| t0 < data[i].len().saturating_sub(length))
+                        .filter(|&&i| data[i].truth_at(t0)[0].is_finite())
                         .map(|&i| (i, t0))
                         .collect();
                     if !batch.is_empty() {

@@ -152,15 +152,18 @@ pub fn batch_grad<const N: usize, const M: usize>(
                 .flatten()
                 .filter(|co| co.mean.iter().chain(co.cov.iter()).all(|v| v.is_finite()));
             let (m, cv) = co.as_ref().map_or((pr.mean, pr.cov), |co| (co.mean, co.cov));
+            // A step without a truth (NaN: the marker was not seen) adds no loss.
             let e = m - target(w, t);
-            out.squared_error_pv[0] += e.rows(0, M).norm_squared();
-            out.squared_error_pv[1] += e.rows(M, M).norm_squared();
+            if e.iter().all(|v| v.is_finite()) {
+                out.squared_error_pv[0] += e.rows(0, M).norm_squared();
+                out.squared_error_pv[1] += e.rows(M, M).norm_squared();
+                out.states += 1;
+            }
             mean.push(m);
             cov.push(cv);
             corr.push(co);
             H.push(h);
         }
-        out.states += n;
         let (Some(t1), Some(t2)) = (t1, t2) else { unreachable!("forward keeps its tape when asked") };
         steps.push(Step { cov_prev, J1, pred, H, corr, mean: mean.clone(), t1, t2, t3 });
     }
@@ -180,8 +183,11 @@ pub fn batch_grad<const N: usize, const M: usize>(
         let mut dy1 = DMatrix::<f32>::zeros(M, cols * n);
         cgs.clear();
         for (s, w) in windows.iter().enumerate() {
-            // d/dmu of |x_gt - mu|^2.
-            dmean[s] += 2.0 * (step.mean[s] - target(w, w.start + k + 1));
+            // d/dmu of |x_gt - mu|^2, where there is a truth.
+            let e = step.mean[s] - target(w, w.start + k + 1);
+            if e.iter().all(|v| v.is_finite()) {
+                dmean[s] += 2.0 * e;
+            }
             let pr = &step.pred[s];
             cgs.push(match &step.corr[s] {
                 Some(co) => {
