@@ -5,29 +5,8 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
-use common::{collect, fails, ok, python, tempdir, trained};
-
-/// Runs the NumPy implementation of docs/model-format.md on `model` and the
-/// `replay` output `out`, and checks it reproduces the replay's `steps`
-/// estimates to 1e-4; returns its JSON.
-fn check_against_the_reference(model: &str, out: &Path, steps: u64) -> serde_json::Value {
-    let py = Command::new(python())
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/dekf_reference.py"))
-        .args([model, out.to_str().unwrap()])
-        .output()
-        .expect("python runs");
-    let stderr = String::from_utf8_lossy(&py.stderr);
-    assert!(py.status.success(), "reference failed (scripts/test installs mcap and numpy):\n{stderr}");
-    let r: serde_json::Value = serde_json::from_slice(&py.stdout).unwrap();
-    assert_eq!(r["steps"].as_u64(), Some(steps));
-    for key in ["position", "velocity", "covariance"] {
-        let d = r["max_relative_difference"][key].as_f64().unwrap();
-        assert!(d < 1e-4, "{key}: relative difference {d}");
-    }
-    r
-}
+use common::{check_against_the_reference, collect, fails, ok, tempdir, trained};
 
 /// The number of messages on `topic` in `file` (`slidetrack info`).
 fn message_count(file: &Path, topic: &str) -> Option<u64> {

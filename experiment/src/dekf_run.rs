@@ -26,9 +26,10 @@ pub const CM: f64 = 100.0;
 pub const DEG: f64 = 180.0 / std::f64::consts::PI;
 
 /// The factors from a truth sample's SI units to a model's state units, per
-/// component: cm and cm/s; planar rotations in deg and deg/s.
+/// component ([`StateKind::from_si`]): cm and cm/s for the sliding state
+/// (2 components); mm, deg, mm/s and deg/s for the planar one (6).
 pub fn model_units(dim: usize) -> Vec<f64> {
-    if dim == 6 { vec![CM, CM, DEG, CM, CM, DEG] } else { vec![CM; dim] }
+    if dim == 6 { StateKind::Planar.from_si() } else { vec![CM; dim] }
 }
 
 /// The model inputs of a session at the filter rate.
@@ -37,8 +38,8 @@ pub struct Inputs {
     pub times: Vec<TimeNs>,
     /// Unnormalised measurement per step, model channel order.
     pub measurements: Vec<Vec<f64>>,
-    /// Truth per step in the model's state units (cm, cm/s; planar
-    /// rotations in deg, deg/s), positions relative to the first step,
+    /// Truth per step in the model's state units (cm, cm/s; planar: mm,
+    /// deg, mm/s, deg/s), positions relative to the first step,
     /// `truth_dim` components each, step after step.
     pub truth: Option<Vec<f64>>,
     /// Components of one truth sample (2 sliding, 6 planar).
@@ -218,10 +219,10 @@ pub fn estimate_message(o: &DekfOutput) -> DekfEstimate {
     })
 }
 
-/// The `/estimate/dekf_planar` message of a planar model's output (cm ->
+/// The `/estimate/dekf_planar` message of a planar model's output (mm ->
 /// m, deg -> rad).
 pub fn planar_message(o: &DekfOutput) -> PlanarEstimate {
-    let si = [1.0 / CM, 1.0 / CM, 1.0 / DEG, 1.0 / CM, 1.0 / CM, 1.0 / DEG];
+    let si: Vec<f64> = StateKind::Planar.from_si().iter().map(|f| 1.0 / f).collect();
     let m = |i: usize| o.mean[i] * si[i];
     PlanarEstimate {
         state: PlanarState {

@@ -130,7 +130,7 @@ pub fn parse_schedule(s: &str) -> Result<Vec<Stage>> {
 
 /// The epoch selection's score of `model` on one whole session: the RMSE of
 /// the position components of the state (in the model's units: cm for
-/// sliding; cm, cm and deg for planar), from the session's first scan.
+/// sliding; mm, mm and deg for planar), from the session's first scan.
 fn selection_score(model: &DekfModel, data: &SessionData) -> Result<f64> {
     match model.state() {
         StateKind::Sliding => Ok(score_session(model, data)?.position_rmse_cm),

@@ -1,6 +1,6 @@
 //! Scoring a planar dEKF model on sessions against `/ground_truth/planar`,
 //! beside predicting no motion and the linear-map baseline on the same
-//! steps: in-plane translation of the grip point (cm, the norm of the 2-D
+//! steps: in-plane translation of the grip point (mm, the norm of the 2-D
 //! error), rotation about the contact normal (deg), and their rates.
 
 use std::collections::HashMap;
@@ -16,16 +16,16 @@ use crate::dekf_eval::first_step;
 use crate::dekf_run::{model_units, run};
 use crate::linear_baseline::LinearBaseline;
 
-/// Errors of one estimator on the planar state (cm, deg, cm/s, deg/s).
+/// Errors of one estimator on the planar state (mm, deg, mm/s, deg/s).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct PlanarErrors {
-    /// RMSE of the in-plane translation (cm): the root of the mean squared
+    /// RMSE of the in-plane translation (mm): the root of the mean squared
     /// norm of the 2-D error.
-    pub translation_rmse_cm: f64,
+    pub translation_rmse_mm: f64,
     /// RMSE of the rotation about the contact normal (deg).
     pub rotation_rmse_deg: f64,
-    /// RMSE of the in-plane velocity (cm/s, norm of the 2-D error).
-    pub velocity_rmse_cmps: f64,
+    /// RMSE of the in-plane velocity (mm/s, norm of the 2-D error).
+    pub velocity_rmse_mmps: f64,
     /// RMSE of the angular velocity about the normal (deg/s).
     pub angular_velocity_rmse_degps: f64,
 }
@@ -57,9 +57,9 @@ impl Sums {
     fn errors(&self) -> PlanarErrors {
         let r = |i: usize| (self.sq[i] / self.steps.max(1) as f64).sqrt();
         PlanarErrors {
-            translation_rmse_cm: r(0),
+            translation_rmse_mm: r(0),
             rotation_rmse_deg: r(1),
-            velocity_rmse_cmps: r(2),
+            velocity_rmse_mmps: r(2),
             angular_velocity_rmse_degps: r(3),
         }
     }
@@ -75,8 +75,8 @@ pub struct PlanarScores {
     pub zero: PlanarErrors,
     /// The linear-map baseline, when there is one.
     pub linear: Option<PlanarErrors>,
-    /// Largest translation error of the dEKF (cm).
-    pub translation_max_cm: f64,
+    /// Largest translation error of the dEKF (mm).
+    pub translation_max_mm: f64,
     /// Largest rotation error of the dEKF (deg).
     pub rotation_max_deg: f64,
     /// Filter steps compared.
@@ -139,7 +139,7 @@ impl SessionSums {
             dekf: self.dekf.errors(),
             zero: self.zero.errors(),
             linear: self.linear.map(|l| l.errors()),
-            translation_max_cm: self.max[0],
+            translation_max_mm: self.max[0],
             rotation_max_deg: self.max[1],
             steps: self.dekf.steps,
         }
@@ -199,7 +199,7 @@ fn wins(sessions: &[PlanarSessionScores], baseline: fn(&PlanarScores) -> Option<
     let mut w = Wins { sessions: sessions.len(), ..Wins::default() };
     for s in sessions {
         let Some(b) = baseline(&s.scores) else { continue };
-        let t = s.scores.dekf.translation_rmse_cm < b.translation_rmse_cm;
+        let t = s.scores.dekf.translation_rmse_mm < b.translation_rmse_mm;
         let r = s.scores.dekf.rotation_rmse_deg < b.rotation_rmse_deg;
         w.translation += usize::from(t);
         w.rotation += usize::from(r);
@@ -212,9 +212,9 @@ fn mean_errors(all: &[PlanarErrors]) -> PlanarErrors {
     let n = all.len().max(1) as f64;
     let avg = |f: fn(&PlanarErrors) -> f64| all.iter().map(f).sum::<f64>() / n;
     PlanarErrors {
-        translation_rmse_cm: avg(|e| e.translation_rmse_cm),
+        translation_rmse_mm: avg(|e| e.translation_rmse_mm),
         rotation_rmse_deg: avg(|e| e.rotation_rmse_deg),
-        velocity_rmse_cmps: avg(|e| e.velocity_rmse_cmps),
+        velocity_rmse_mmps: avg(|e| e.velocity_rmse_mmps),
         angular_velocity_rmse_degps: avg(|e| e.angular_velocity_rmse_degps),
     }
 }
@@ -256,7 +256,7 @@ pub fn evaluate_planar(
         dekf: of(|s| s.dekf),
         zero: of(|s| s.zero),
         linear: linear_means.filter(|v| !v.is_empty()).map(|v| mean_errors(&v)),
-        translation_max_cm: sessions.iter().map(|s| s.scores.translation_max_cm).sum::<f64>() / n,
+        translation_max_mm: sessions.iter().map(|s| s.scores.translation_max_mm).sum::<f64>() / n,
         rotation_max_deg: sessions.iter().map(|s| s.scores.rotation_max_deg).sum::<f64>() / n,
         steps: pooled.steps,
     };
@@ -264,7 +264,7 @@ pub fn evaluate_planar(
         dekf: pooled.errors(),
         zero: pooled_zero.errors(),
         linear: pooled_linear.map(|l| l.errors()),
-        translation_max_cm: max[0],
+        translation_max_mm: max[0],
         rotation_max_deg: max[1],
         steps: pooled.steps,
     };
@@ -285,13 +285,13 @@ fn row(name: &str, s: &PlanarScores) -> String {
     };
     format!(
         "{name:<34} {:>8.3} {:>8.3} {:>8} {:>8.3} {:>8.3} {:>8} {:>8.3} {:>8.3} {:>6}",
-        s.dekf.translation_rmse_cm,
-        s.zero.translation_rmse_cm,
-        l(|e| e.translation_rmse_cm),
+        s.dekf.translation_rmse_mm,
+        s.zero.translation_rmse_mm,
+        l(|e| e.translation_rmse_mm),
         s.dekf.rotation_rmse_deg,
         s.zero.rotation_rmse_deg,
         l(|e| e.rotation_rmse_deg),
-        s.dekf.velocity_rmse_cmps,
+        s.dekf.velocity_rmse_mmps,
         s.dekf.angular_velocity_rmse_degps,
         s.steps
     )
@@ -314,13 +314,13 @@ pub fn planar_table(r: &PlanarReport) -> String {
         "ang vel",
         "steps",
         "",
-        "(cm)",
-        "(cm)",
-        "(cm)",
+        "(mm)",
+        "(mm)",
+        "(mm)",
         "(deg)",
         "(deg)",
         "(deg)",
-        "(cm/s)",
+        "(mm/s)",
         "(deg/s)",
         ""
     );
@@ -338,13 +338,13 @@ pub fn planar_table(r: &PlanarReport) -> String {
     let p = &r.pooled;
     out += &format!(
         "pooled: translation {:.0} % of zero motion, rotation {:.0} %",
-        ratio(p.dekf.translation_rmse_cm, p.zero.translation_rmse_cm),
+        ratio(p.dekf.translation_rmse_mm, p.zero.translation_rmse_mm),
         ratio(p.dekf.rotation_rmse_deg, p.zero.rotation_rmse_deg)
     );
     if let Some(l) = &p.linear {
         out += &format!(
             "; of the linear map: {:.0} % and {:.0} %",
-            ratio(p.dekf.translation_rmse_cm, l.translation_rmse_cm),
+            ratio(p.dekf.translation_rmse_mm, l.translation_rmse_mm),
             ratio(p.dekf.rotation_rmse_deg, l.rotation_rmse_deg)
         );
     }

@@ -155,7 +155,7 @@ pub fn run(args: &TrainArgs, quiet: bool) -> Result<()> {
             .filter_map(|e| e.selection_score.map(|s| (e.epoch, s)))
             .min_by(|a, b| a.1.total_cmp(&b.1));
         if let Some((epoch, score)) = best {
-            let unit = if trained.model.state() == StateKind::Planar { "cm|deg" } else { "cm" };
+            let unit = if trained.model.state() == StateKind::Planar { "mm|deg" } else { "cm" };
             println!(
                 "  kept epoch {epoch}: position RMSE {score:.3} {unit} over whole training sessions (--no-select keeps the last)"
             );

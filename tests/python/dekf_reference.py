@@ -2,11 +2,12 @@
 
 Usage: dekf_reference.py MODEL.safetensors REPLAY.mcap
 
-Loads the model file (with the architecture its metadata describes; the
-thesis's when it says none), reads /tactile/derivative and /estimate/dekf from
-a session written by `slidetrack replay`, runs the filter of the document on
-the recorded measurements and prints JSON with the largest relative
-differences between its estimates and the recorded ones.
+Loads the model file (with the architecture and the state its metadata
+describes; the thesis's when it says none), reads /tactile/derivative and the
+estimates (/estimate/dekf of a sliding model, /estimate/dekf_planar of a
+planar one) from a session written by `slidetrack replay`, runs the filter of
+the document on the recorded measurements and prints JSON with the largest
+relative differences between its estimates and the recorded ones.
 """
 import json
 import struct
@@ -64,7 +65,7 @@ ACTIVATIONS = {"relu": _relu, "tanh": _tanh, "gelu": _gelu}
 
 
 class Net:
-    """One residual MLP; forward() returns the value and the Jacobian row."""
+    """One residual MLP; forward() returns the output vector and its Jacobian."""
 
     def __init__(self, t, prefix, arch):
         def lin(name):
@@ -104,7 +105,24 @@ class Net:
         for block in self.res:
             h, dh = self._block(block, h, dh)
         y, dy = self._linear(self.out, h, dh)
-        return float(y[0]), (dy[0].astype(np.float64) if jacobian else None)
+        return y.astype(np.float64), (dy.astype(np.float64) if jacobian else None)
+
+
+DEG = 180.0 / np.pi
+# The state's units from the SI units of the recorded estimates.
+FROM_SI = {"sliding": [100.0, 100.0], "planar": [1000.0, 1000.0, DEG, 1000.0, 1000.0, DEG]}
+ESTIMATE_TOPIC = {"sliding": "/estimate/dekf", "planar": "/estimate/dekf_planar"}
+
+
+def recorded_state(state, payload):
+    """The recorded estimate in SI units: mean and covariance."""
+    if state == "sliding":
+        return np.array([payload["position"], payload["velocity"]]), np.array(payload["covariance"])
+    s = payload["state"]
+    mean = np.array(
+        s["translation_m"] + [s["rotation_rad"]] + s["velocity_m_per_s"] + [s["angular_velocity_rad_per_s"]]
+    )
+    return mean, np.array(payload["covariance"]).reshape(6, 6)
 
 
 def main():
@@ -114,52 +132,60 @@ def main():
     arch = json.loads(meta[ARCHITECTURE_KEY]) if ARCHITECTURE_KEY in meta else THESIS_ARCHITECTURE
     nn1, nn2, nn3 = (Net(t, name, arch) for name in ("motion", "measurement", "feature"))
     mean_in, std_in = t["feature.input_mean"], t["feature.input_std"]
-    lq = t["process_noise.cholesky"].astype(np.float64)
-    lq = np.tril(lq)
+    state = m.get("state", "sliding")
+    d = 1 if state == "sliding" else 3
+    n = 2 * d
+    lq = np.tril(t["process_noise.cholesky"].astype(np.float64))
     Q = lq @ lq.T
-    R = float(t["measurement_noise.cholesky"][0, 0]) ** 2
+    lr = np.tril(t["measurement_noise.cholesky"].astype(np.float64))
+    R = lr @ lr.T
     dt = m["dt_s"]
+    topic = ESTIMATE_TOPIC[state]
 
     derivative, recorded = {}, []
     with open(replay_path, "rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(topics=["/tactile/derivative", "/estimate/dekf"]):
+        for _, channel, message in make_reader(f).iter_messages(topics=["/tactile/derivative", topic]):
             payload = json.loads(message.data)
             if channel.topic == "/tactile/derivative":
                 derivative[message.log_time] = np.array(payload["values"], dtype=np.float64)
             else:
                 recorded.append((message.log_time, payload))
 
-    mu = np.zeros(2)
+    scale = np.array(FROM_SI[state])
+    mu = np.zeros(n)
     P = np.diag(m["p0_diag"]).astype(np.float64)
     worst = {"position": 0.0, "velocity": 0.0, "covariance": 0.0}
     for k, (time, est) in enumerate(recorded):
         if k > 0:
             a, J1 = nn1.forward(mu, True)
-            F = np.array([[1.0, dt], [J1[0], 1.0 + J1[1]]])
-            mu = np.array([mu[0] + mu[1] * dt, mu[1] + a])
+            F = np.eye(n)
+            F[:d, d:] = dt * np.eye(d)
+            F[d:, :] += J1
+            mu = np.concatenate([mu[:d] + mu[d:] * dt, mu[d:] + a])
             P = F @ P @ F.T + Q
             meas = derivative[time]
             if np.all(np.isfinite(meas)):
                 z, _ = nn3.forward(((meas.astype(np.float32) - mean_in) / std_in), False)
                 zhat, H = nn2.forward(mu, True)
-                S = H @ P @ H + R
-                if S > 1e-12:
-                    K = P @ H / S
-                    mu = mu + K * (z - zhat)
-                    A = np.eye(2) - np.outer(K, H)
-                    P = A @ P @ A.T + R * np.outer(K, K)
-        got = np.array([est["position"], est["velocity"]]) * 100.0
-        cov = np.array(est["covariance"]) * 1e4
-        # Relative to the value, or to 0.01 (cm, cm/s) near zero: the networks
-        # run in float32, whose roundings are ~1e-7 cm/s there.
+                S = H @ P @ H.T + R
+                if np.all(np.linalg.eigvalsh(S) > 1e-12):
+                    K = P @ H.T @ np.linalg.inv(S)
+                    mu = mu + K @ (z - zhat)
+                    A = np.eye(n) - K @ H
+                    P = A @ P @ A.T + K @ R @ K.T
+        got_si, cov_si = recorded_state(state, est)
+        got = got_si * scale
+        cov = cov_si * np.outer(scale, scale)
+        # Relative to the value, or to 0.01 (cm, cm/s; mm, deg) near zero: the
+        # networks run in float32, whose roundings are ~1e-7 there.
         rel = lambda a, b: abs(a - b) / max(abs(b), 1e-2)
-        worst["position"] = max(worst["position"], rel(mu[0], got[0]))
-        worst["velocity"] = max(worst["velocity"], rel(mu[1], got[1]))
+        worst["position"] = max([worst["position"]] + [rel(mu[i], got[i]) for i in range(d)])
+        worst["velocity"] = max([worst["velocity"]] + [rel(mu[d + i], got[d + i]) for i in range(d)])
         # The covariance against its largest element: an off-diagonal element
         # near zero carries float32 roundings of the diagonal's scale.
-        scale = max(float(np.max(np.abs(cov))), 1e-3)
-        worst["covariance"] = max(worst["covariance"], float(np.max(np.abs(P - cov))) / scale)
-    print(json.dumps({"steps": len(recorded), "architecture": arch, "max_relative_difference": worst}))
+        c_scale = max(float(np.max(np.abs(cov))), 1e-3)
+        worst["covariance"] = max(worst["covariance"], float(np.max(np.abs(P - cov))) / c_scale)
+    print(json.dumps({"steps": len(recorded), "architecture": arch, "state": state, "max_relative_difference": worst}))
 
 
 if __name__ == "__main__":

@@ -17,8 +17,10 @@ pub enum StateKind {
     #[default]
     Sliding,
     /// `(x, y, theta, vx, vy, omega)`: the translation of the grip point in
-    /// the contact plane along its two axes (cm), the rotation about the
-    /// contact normal (deg), and their rates (cm/s, deg/s).
+    /// the contact plane along its two axes (mm), the rotation about the
+    /// contact normal (deg), and their rates (mm/s, deg/s). Millimetres and
+    /// degrees, so that the typical motions of a held object (a few mm, a
+    /// few degrees) weigh alike in the loss, a plain sum of squares.
     Planar,
 }
 
@@ -59,7 +61,7 @@ impl StateKind {
     pub fn units(self) -> Vec<String> {
         let units: &[&str] = match self {
             StateKind::Sliding => &["cm", "cm/s"],
-            StateKind::Planar => &["cm", "cm", "deg", "cm/s", "cm/s", "deg/s"],
+            StateKind::Planar => &["mm", "mm", "deg", "mm/s", "mm/s", "deg/s"],
         };
         units.iter().map(|u| (*u).to_string()).collect()
     }
@@ -68,6 +70,16 @@ impl StateKind {
     /// every component, in the state's units squared).
     pub fn default_p0_diag(self) -> Vec<f64> {
         vec![0.1; self.dim()]
+    }
+
+    /// Factors from the SI units of a truth sample (m, m/s; rad, rad/s) to
+    /// the state's units, per component.
+    pub fn from_si(self) -> Vec<f64> {
+        const DEG: f64 = 180.0 / std::f64::consts::PI;
+        match self {
+            StateKind::Sliding => vec![100.0; 2],
+            StateKind::Planar => vec![1000.0, 1000.0, DEG, 1000.0, 1000.0, DEG],
+        }
     }
 
     /// True for [`StateKind::Sliding`] (serde: the default is not written,
