@@ -9,6 +9,7 @@ mod experiment;
 mod import;
 mod live;
 mod session;
+mod slip;
 mod vision;
 
 use clap::{Parser, Subcommand};
@@ -20,6 +21,7 @@ pub use experiment::*;
 pub use import::*;
 pub use live::*;
 pub use session::*;
+pub use slip::*;
 pub use vision::*;
 
 /// Controlled-sliding grasp experiments with tactile sensors and cameras:
@@ -73,6 +75,8 @@ pub enum Command {
     Replay(ReplayArgs),
     /// Score a dEKF model on labelled sessions (RMSE and max errors, Table 6.1).
     Eval(EvalArgs),
+    /// Run the grasp-state detector over sessions: drops, false alarms, slip-label AUCs.
+    Slip(SlipArgs),
     /// Run the experiment with the dEKF (and the marker filter) live, recorded to a session.
     Track(TrackArgs),
     /// The experiments of thesis Sec. 6.3 on the simulated rig: Tables 6.1-6.4.
