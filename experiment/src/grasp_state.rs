@@ -164,25 +164,30 @@ impl SlipStage {
         }
     }
 
-    /// The channel metadata of `/estimate/slip`: `detector` (the settings,
-    /// JSON), `slip_score` (its definition), `slip_score_unit`,
-    /// `derivative_filter` (JSON), `load`, `opening`, `repeated_scans`.
+    /// The channel metadata of `/estimate/slip` (see [`channel_metadata`]).
     pub fn metadata(&self) -> serde_json::Result<BTreeMap<String, String>> {
-        let entries = [
-            ("detector", serde_json::to_string(self.config())?),
-            ("slip_score", SLIP_SCORE_DEFINITION.to_string()),
-            ("slip_score_unit", SLIP_SCORE_UNIT.to_string()),
-            ("derivative_filter", serde_json::to_string(self.derivative.config())?),
-            ("load", LOAD_DEFINITION.to_string()),
-            ("opening", OPENING_DEFINITION.to_string()),
-            (
-                "repeated_scans",
-                "a scan equal to the previous one bit for bit keeps the score and decides nothing"
-                    .to_string(),
-            ),
-        ];
-        Ok(entries.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
+        channel_metadata(self.config())
     }
+}
+
+/// The channel metadata of `/estimate/slip` written by a stage with the
+/// detector settings `cfg`: `detector` (the settings, JSON), `slip_score`
+/// (its definition), `slip_score_unit`, `derivative_filter` (JSON), `load`,
+/// `opening`, `repeated_scans`.
+pub fn channel_metadata(cfg: &GraspDetectorConfig) -> serde_json::Result<BTreeMap<String, String>> {
+    let entries = [
+        ("detector", serde_json::to_string(cfg)?),
+        ("slip_score", SLIP_SCORE_DEFINITION.to_string()),
+        ("slip_score_unit", SLIP_SCORE_UNIT.to_string()),
+        ("derivative_filter", serde_json::to_string(&shear_rate_filter())?),
+        ("load", LOAD_DEFINITION.to_string()),
+        ("opening", OPENING_DEFINITION.to_string()),
+        (
+            "repeated_scans",
+            "a scan equal to the previous one bit for bit keeps the score and decides nothing".to_string(),
+        ),
+    ];
+    Ok(entries.into_iter().map(|(k, v)| (k.to_string(), v)).collect())
 }
 
 #[cfg(test)]

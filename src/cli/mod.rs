@@ -71,7 +71,7 @@ pub enum Command {
     Devices(DevicesArgs),
     /// Train a dEKF model on labelled sessions (BPTT, Sec. 6.2.4).
     Train(TrainArgs),
-    /// Run a dEKF model over a session and write a copy with its estimates.
+    /// Run the grasp-state detector and a dEKF model over a session; write a copy with their estimates.
     Replay(ReplayArgs),
     /// Score a dEKF model on labelled sessions (RMSE and max errors, Table 6.1).
     Eval(EvalArgs),
@@ -232,6 +232,15 @@ mod tests {
             panic!("not play")
         };
         assert_eq!((p.rate, p.looping, p.live.as_str()), (2.0, true, "127.0.0.1:8765"));
+    }
+
+    #[test]
+    fn replay_runs_without_a_model_but_plots_only_with_one() {
+        let parse = |args: &[&str]| Cli::try_parse_from([&["slidetrack", "replay", "s.mcap"], args].concat());
+        let Command::Replay(a) = parse(&["--out", "o.mcap"]).unwrap().command else { panic!("not replay") };
+        assert_eq!(a.model, None);
+        assert!(parse(&["--out", "o.mcap", "--plot", "p.png"]).is_err(), "--plot needs --model");
+        assert!(parse(&["--out", "o.mcap", "--plot", "p.png", "--model", "m"]).is_ok());
     }
 
     #[test]
