@@ -159,14 +159,15 @@ pub fn run_offline(path: &Path, cfg: GraspDetectorConfig) -> Result<SlipTrace> {
 fn read_side(side: &mut SideChannels, topic: &str, t: TimeNs, data: &[u8]) -> serde_json::Result<()> {
     match topic {
         ArucoDetection::TOPIC => {
-            if serde_json::from_slice::<ArucoDetection>(data)?.detected {
+            let seen = serde_json::from_slice::<ArucoDetection>(data)?.detected;
+            if seen {
                 side.marker_last_seen = Some(t);
             }
         }
         SLIP_TOPIC => side.labels.push((t, serde_json::from_slice::<SlipLabelMessage>(data)?.slip != 0.0)),
         _ if side.has_labels => {
-            if let CommandedVelocity { v_x_m_s: Some(vx), v_y_m_s: Some(vy) } = serde_json::from_slice(data)?
-            {
+            let v: CommandedVelocity = serde_json::from_slice(data)?;
+            if let (Some(vx), Some(vy)) = (v.v_x_m_s, v.v_y_m_s) {
                 side.robot_speed.push((t, vx.hypot(vy)));
             }
         }
