@@ -1,7 +1,8 @@
 //! The replay rig end to end: a session recorded by `track` and played back
 //! by `track --rig replay` gives the same estimates, message for message,
-//! and the same protocol, commands and marker track; bad requests fail with
-//! one line.
+//! and the same protocol, commands, hand states and marker track; `replay`
+//! writes the grasp detector's `/estimate/slip` on every zeroed scan; bad
+//! requests fail with one line.
 #![expect(clippy::unwrap_used, reason = "test code: a failed unwrap is a failed test")]
 
 mod common;
@@ -9,8 +10,12 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use common::{fails, ok, tempdir, trained};
-use slidetrack_session::{MessageReader, ReadOptions, SESSION_METADATA, SessionInfo};
+use common::{collect, fails, ok, tempdir, trained};
+use slidetrack_estimators::slip::GraspDetectorConfig;
+use slidetrack_session::{
+    ChannelMessage, MessageReader, ReadOptions, SESSION_METADATA, SessionInfo, SlipEstimate, TactileZeroed,
+    read_channel,
+};
 
 /// Every message of `topic` in `path`: `(log time, publish time, sequence, payload)`.
 fn messages(path: &Path, topic: &str) -> Vec<(u64, u64, u32, Vec<u8>)> {
@@ -37,6 +42,8 @@ fn a_replay_gives_the_estimates_of_the_live_run_message_for_message() {
         "/estimate/dekf",
         "/tactile/derivative",
         "/estimate/aruco",
+        "/estimate/slip",
+        "/hand/state",
         "/tactile/raw",
         "/tactile/tare",
         "/tactile/zeroed",
@@ -82,4 +89,32 @@ fn bad_replay_requests_fail_with_one_line() {
     assert!(e.contains("renders the in-hand scene") && e.contains(s), "{e}");
     let e = fails(&["collect", "--rig", "replay", "--out", dir.path().to_str().unwrap()]);
     assert!(e.contains("track --rig replay"), "{e}");
+}
+
+// Catches: `replay` (without a model) not writing `/estimate/slip`, writing
+// it on some scans only or at other times, a load other than the sum of the
+// replayed scans' z, a score stuck at 0, and channel metadata without the
+// detector's settings or the score's unit.
+#[test]
+fn replay_writes_the_grasp_detector_on_every_zeroed_scan_of_a_simulated_session() {
+    let dir = tempdir();
+    let session = collect(dir.path(), "box", 7, 6.0, &["--no-camera"]);
+    let out = dir.path().join("slip.mcap");
+    let printed = ok(&["-q", "replay", session.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(printed.contains("grasp-detector scans"), "{printed}");
+    let zeroed = read_channel::<TactileZeroed>(&out, ReadOptions::default()).unwrap();
+    let slip = read_channel::<SlipEstimate>(&out, ReadOptions::default()).unwrap();
+    assert!(zeroed.len() > 500, "{}", zeroed.len());
+    assert_eq!(zeroed.len(), slip.len());
+    for ((tz, z), (ts, e)) in zeroed.iter().zip(&slip) {
+        assert_eq!(tz, ts);
+        let load: f64 = z.sensors.iter().flat_map(|s| &s.taxels).map(|t| t.z).sum();
+        assert!((e.load - load).abs() <= 1e-9 * load.abs().max(1.0), "{tz}: {} vs {load}", e.load);
+    }
+    assert!(slip.iter().any(|(_, e)| e.slip_score > 10.0), "the shear moves while the object slides");
+    let info = SessionInfo::read(&out, ReadOptions::default()).unwrap();
+    let meta = &info.channel(SlipEstimate::TOPIC).unwrap().metadata;
+    let cfg: GraspDetectorConfig = serde_json::from_str(&meta["detector"]).unwrap();
+    assert_eq!(cfg, GraspDetectorConfig::default());
+    assert_eq!(meta["slip_score_unit"], "counts/s");
 }

@@ -8,6 +8,8 @@ pub mod dekf_run;
 pub mod dekf_train;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod emulate;
+pub mod grasp_eval;
+pub mod grasp_state;
 pub mod import;
 pub mod linear_baseline;
 pub mod marker;

@@ -81,6 +81,8 @@ pub trait TrialExtension {
     fn on_truth(&mut self, _truth: &SimTruth) {}
     /// A protocol event.
     fn on_event(&mut self, _t: TimeNs, _event: &ProtocolEvent) {}
+    /// A status the hand reported (read after the scan of its time).
+    fn on_hand_status(&mut self, _status: &HandStatus) {}
 }
 
 /// Longest time between two `/tactile/decoder` messages while nothing changes (s).
@@ -247,6 +249,9 @@ impl TrialObserver for SessionObserver<'_> {
     fn on_hand_status(&mut self, status: &HandStatus) -> Result<(), ObserverError> {
         let ch = registered(&self.logger, &mut self.ch.hand_state)?;
         self.logger.log_json(ch, status.t, status.t, 0, &HandState::new(status))?;
+        if let Some(x) = self.extension.as_mut() {
+            x.on_hand_status(status);
+        }
         Ok(())
     }
 

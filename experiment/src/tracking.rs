@@ -1,7 +1,8 @@
-//! The live trackers of `slidetrack track`: the dEKF on every tactile scan
-//! and a causal constant-velocity Kalman filter on the marker, recorded
-//! beside the trial (`/tactile/derivative`, `/estimate/dekf`,
-//! `/estimate/aruco`) and shown in the terminal; beside them a vision
+//! The live trackers of `slidetrack track`: the dEKF and the grasp-state
+//! detector on every tactile scan and a causal constant-velocity Kalman
+//! filter on the marker, recorded beside the trial (`/tactile/derivative`,
+//! `/estimate/dekf`, `/estimate/slip`, `/estimate/aruco`) and shown in the
+//! terminal; beside them a vision
 //! tracker, on the simulated rig's rendered in-hand RGB-D scene or, on a
 //! hardware rig, on its RGB-D camera in a thread of its own.
 #![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
@@ -11,15 +12,19 @@ use std::sync::{Arc, Mutex};
 use anyhow::Result;
 use nalgebra::SVector;
 use slidetrack_control::{Baseline, ObserverError, ProtocolEvent};
-use slidetrack_core::{Frame, Phase, SimTruth, TactileInfo, TimeNs};
+use slidetrack_core::{Frame, HandStatus, Phase, SimTruth, TactileInfo, TimeNs};
 use slidetrack_estimators::cv_smoother::CvSmootherParams;
 use slidetrack_estimators::dekf::DekfModel;
 use slidetrack_estimators::kf::Gaussian;
 use slidetrack_estimators::metrics::RunningRms;
 use slidetrack_estimators::rts::{GatedKalmanFilter, Measurement, Transition};
-use slidetrack_session::{ArucoEstimate, ChannelHandle, Logger, SlidingEstimate, TactileDerivative};
+use slidetrack_estimators::slip::{GraspDetectorConfig, GraspState};
+use slidetrack_session::{
+    ArucoEstimate, ChannelHandle, Logger, SlidingEstimate, SlipEstimate, TactileDerivative,
+};
 
 use crate::dekf_run::{CM, DekfStage, EstimateChannel, estimate_metadata};
+use crate::grasp_state::SlipStage;
 use crate::observer::TrialExtension;
 use crate::vision_inhand::InHandVision;
 use slidetrack_vision::live::LiveThread;
@@ -104,6 +109,8 @@ pub struct LiveStatus {
     pub truth: Option<[f64; 2]>,
     /// dEKF steps.
     pub dekf_steps: u64,
+    /// The grasp detector's state after the last scan.
+    pub grasp: Option<GraspState>,
     /// dEKF errors against the simulator's truth until the release.
     pub dekf_errors: ErrorSums,
     /// Marker filter errors against the simulator's truth until the release.
@@ -150,6 +157,9 @@ pub struct LiveTrackers {
     dekf: DekfStage,
     derivative_ch: ChannelHandle<TactileDerivative>,
     dekf_ch: EstimateChannel,
+    /// The grasp-state detector and `/estimate/slip`.
+    slip: SlipStage,
+    slip_ch: ChannelHandle<SlipEstimate>,
     marker: Option<(MarkerFilter, ChannelHandle<ArucoEstimate>)>,
     vision: Option<InHandVision>,
     /// The vision tracker on the rig's RGB-D camera, stopped when the
@@ -165,7 +175,8 @@ pub struct LiveTrackers {
 }
 
 impl LiveTrackers {
-    /// Registers the estimate channels on `logger`; `marker` adds the marker
+    /// Registers the estimate channels on `logger` (the grasp detector with
+    /// its default settings on `/estimate/slip`); `marker` adds the marker
     /// filter and `/estimate/aruco`. `status` is shared with the caller for
     /// the summary; `display` receives the live line (about ten times per
     /// second of session time).
@@ -195,7 +206,11 @@ impl LiveTrackers {
             }
             None => None,
         };
+        let slip = SlipStage::new(GraspDetectorConfig::default(), tactile)?;
+        let slip_ch = logger.register::<SlipEstimate>(slip.metadata()?)?;
         Ok(LiveTrackers {
+            slip,
+            slip_ch,
             logger: logger.clone(),
             dekf: DekfStage::new(model, tactile)?,
             derivative_ch: logger.register::<TactileDerivative>(derivative_meta)?,
@@ -269,6 +284,9 @@ impl LiveTrackers {
         if self.vision.is_some() {
             line += &format!("  | vision {}", fmt(s.vision));
         }
+        if let Some(grasp) = s.grasp {
+            line += &format!("  | grasp {}", grasp.as_str());
+        }
         if s.truth.is_some() {
             line += &format!("  | truth {}", fmt(s.truth));
         }
@@ -316,6 +334,9 @@ impl Drop for LiveTrackers {
 
 impl TrialExtension for LiveTrackers {
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
+        let slip = self.slip.on_scan(t, zeroed);
+        self.logger.log_json(&self.slip_ch, t, t, 0, &slip)?;
+        let grasp = self.slip.reading().state;
         let Some(out) = self.dekf.on_scan(t, zeroed) else { return Ok(()) };
         let msg = TactileDerivative { values: out.measurement.clone() };
         self.logger.log_json(&self.derivative_ch, t, t, 0, &msg)?;
@@ -333,6 +354,7 @@ impl TrialExtension for LiveTrackers {
             s.dekf = Some([out.mean[0], out.mean[dofs]]);
             s.truth = truth;
             s.dekf_steps += 1;
+            s.grasp = Some(grasp);
             // The simulator's truth is along the sliding axis: a planar
             // model's state is not scored against it.
             if let (Some(tr), false, 1) = (truth, released, dofs) {
@@ -362,6 +384,10 @@ impl TrialExtension for LiveTrackers {
             }
         });
         Ok(())
+    }
+
+    fn on_hand_status(&mut self, status: &HandStatus) {
+        self.slip.set_opening(status.opening_m);
     }
 
     fn on_truth(&mut self, truth: &SimTruth) {

@@ -235,14 +235,15 @@ pub struct TrainArgs {
 pub struct ReplayArgs {
     /// Session file (.mcap).
     pub file: PathBuf,
-    /// Model file (.safetensors).
+    /// Model file (.safetensors); without it only the grasp-state detector runs.
     #[arg(long)]
-    pub model: PathBuf,
-    /// Output session: a copy of FILE with `/tactile/derivative` and `/estimate/dekf`.
+    pub model: Option<PathBuf>,
+    /// Output session: a copy of FILE with `/estimate/slip` (the grasp-state
+    /// detector) and, with --model, `/tactile/derivative` and `/estimate/dekf`.
     #[arg(long)]
     pub out: PathBuf,
-    /// Also plot estimates against the truth (Fig. 6.9).
-    #[arg(long)]
+    /// Also plot the dEKF's estimates against the truth (Fig. 6.9).
+    #[arg(long, requires = "model")]
     pub plot: Option<PathBuf>,
     /// Replace OUT if it exists.
     #[arg(long)]

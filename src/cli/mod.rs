@@ -9,6 +9,7 @@ mod experiment;
 mod import;
 mod live;
 mod session;
+mod slip;
 mod vision;
 
 use clap::{Parser, Subcommand};
@@ -20,6 +21,7 @@ pub use experiment::*;
 pub use import::*;
 pub use live::*;
 pub use session::*;
+pub use slip::*;
 pub use vision::*;
 
 /// Controlled-sliding grasp experiments with tactile sensors and cameras:
@@ -69,10 +71,12 @@ pub enum Command {
     Devices(DevicesArgs),
     /// Train a dEKF model on labelled sessions (BPTT, Sec. 6.2.4).
     Train(TrainArgs),
-    /// Run a dEKF model over a session and write a copy with its estimates.
+    /// Run the grasp-state detector and a dEKF model over a session; write a copy with their estimates.
     Replay(ReplayArgs),
     /// Score a dEKF model on labelled sessions (RMSE and max errors, Table 6.1).
     Eval(EvalArgs),
+    /// Run the grasp-state detector over sessions: drops, false alarms, slip-label AUCs.
+    Slip(SlipArgs),
     /// Run the experiment with the dEKF (and the marker filter) live, recorded to a session.
     Track(TrackArgs),
     /// The experiments of thesis Sec. 6.3 on the simulated rig: Tables 6.1-6.4.
@@ -228,6 +232,15 @@ mod tests {
             panic!("not play")
         };
         assert_eq!((p.rate, p.looping, p.live.as_str()), (2.0, true, "127.0.0.1:8765"));
+    }
+
+    #[test]
+    fn replay_runs_without_a_model_but_plots_only_with_one() {
+        let parse = |args: &[&str]| Cli::try_parse_from([&["slidetrack", "replay", "s.mcap"], args].concat());
+        let Command::Replay(a) = parse(&["--out", "o.mcap"]).unwrap().command else { panic!("not replay") };
+        assert_eq!(a.model, None);
+        assert!(parse(&["--out", "o.mcap", "--plot", "p.png"]).is_err(), "--plot needs --model");
+        assert!(parse(&["--out", "o.mcap", "--plot", "p.png", "--model", "m"]).is_ok());
     }
 
     #[test]

@@ -101,7 +101,7 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
 fn plots(args: &DemoArgs, first_test: &std::path::Path, model_path: std::path::PathBuf) -> Result<()> {
     super::replay::run_cmd(&ReplayArgs {
         file: first_test.to_path_buf(),
-        model: model_path,
+        model: Some(model_path),
         out: args.out.join("replay.mcap"),
         plot: Some(args.out.join("replay.png")),
         overwrite: true,

@@ -23,6 +23,7 @@ mod play;
 mod plot;
 mod record;
 pub mod replay;
+mod slip;
 pub mod study;
 pub mod track;
 pub mod train;
@@ -50,6 +51,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Train(args) => train::run(&args, quiet),
         Command::Replay(args) => replay::run_cmd(&args),
         Command::Eval(args) => eval::run_cmd(&args),
+        Command::Slip(args) => slip::run(&args),
         Command::Track(args) => track::run(&args, quiet),
         Command::Study(args) => study::run(&args, quiet),
         Command::Vision(args) => vision::run(&args, quiet),

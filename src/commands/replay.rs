@@ -1,52 +1,92 @@
-//! `slidetrack replay`: run a dEKF model over a recorded session (through the
-//! replay rig, as `track` runs it live) and write a copy of the session with
-//! the model's input and estimates.
+//! `slidetrack replay`: run the grasp-state detector and, with `--model`, a
+//! dEKF model over a recorded session (through the replay rig, as `track`
+//! runs them live; imported sessions over their recorded scans) and write a
+//! copy of the session with their estimates.
+
+use std::path::Path;
 
 use anyhow::{Context, Result, bail};
+use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
+use slidetrack_estimators::slip::GraspDetectorConfig;
 use slidetrack_experiment::dataset::load;
 use slidetrack_experiment::dekf_eval::has_protocol;
 use slidetrack_experiment::dekf_run::{estimate_channel, estimate_metadata, load_model, run};
+use slidetrack_experiment::grasp_eval::run_offline;
+use slidetrack_experiment::grasp_state::channel_metadata;
 use slidetrack_experiment::plot::dekf::plot_replay;
-use slidetrack_experiment::replay::replay_dekf;
-use slidetrack_session::{NewChannel, ReadOptions, TactileDerivative, rewrite_session};
+use slidetrack_experiment::replay::{ReplayEstimates, replay_estimates};
+use slidetrack_session::{NewChannel, ReadOptions, SlipEstimate, TactileDerivative, rewrite_session};
 
 use crate::cli::ReplayArgs;
 
 pub fn run_cmd(args: &ReplayArgs) -> Result<()> {
-    let model = load_model(&args.model)?;
+    let model = args.model.as_deref().map(load_model).transpose()?;
     if args.out.exists() && !args.overwrite {
         bail!("{} already exists; pass --overwrite to replace it", args.out.display());
     }
     if std::fs::canonicalize(&args.file).ok() == std::fs::canonicalize(&args.out).ok() {
         bail!("--out must differ from the input file");
     }
-    // Sessions recorded without the protocol (imports) have nothing to
-    // replay it on: the model runs over their recorded zeroed scans.
-    let outputs = if has_protocol(&args.file)? {
-        replay_dekf(&args.file, &model)?
-    } else {
-        run(&model, &load(&args.file, None)?)?
-    };
-    let model_name = args.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    let [derivative_meta, estimate_meta] = estimate_metadata(&model, &model_name)?;
-    let mut derivative = NewChannel::of::<TactileDerivative>(derivative_meta);
-    for (t, o) in &outputs {
-        derivative.push_json(*t, &TactileDerivative { values: o.measurement.clone() })?;
+    let cfg = GraspDetectorConfig::default();
+    let estimates = estimates(&args.file, model.as_ref(), cfg)?;
+    let mut channels = vec![slip_channel(channel_metadata(&cfg)?, &estimates.slip)?];
+    if let (Some(model), Some(path)) = (&model, &args.model) {
+        channels.extend(dekf_channels(model, path, &estimates.dekf)?);
     }
-    let estimate = estimate_channel(&model, estimate_meta, &outputs)?;
     let tmp = args.out.with_extension("mcap.partial");
     std::fs::copy(&args.file, &tmp)
         .with_context(|| format!("cannot copy {} to {}", args.file.display(), tmp.display()))?;
-    let result = rewrite_session(&tmp, ReadOptions::default(), &|_| false, vec![derivative, estimate]);
+    let result = rewrite_session(&tmp, ReadOptions::default(), &|_| false, channels);
     if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);
         return Err(e.into());
     }
     std::fs::rename(&tmp, &args.out).with_context(|| format!("cannot write {}", args.out.display()))?;
-    println!("{}: {} dEKF steps", args.out.display(), outputs.len());
+    let dekf = if model.is_some() { format!(", {} dEKF steps", estimates.dekf.len()) } else { String::new() };
+    println!("{}: {} grasp-detector scans{dekf}", args.out.display(), estimates.slip.len());
     if let Some(plot) = &args.plot {
-        plot_replay(&args.file, &outputs, plot)?;
+        plot_replay(&args.file, &estimates.dekf, plot)?;
         println!("{}", plot.display());
     }
     Ok(())
+}
+
+/// The estimates of the session at `path`. Sessions recorded without the protocol (imports) have nothing
+/// to replay it on: the estimators run over their recorded zeroed scans.
+fn estimates(path: &Path, model: Option<&DekfModel>, cfg: GraspDetectorConfig) -> Result<ReplayEstimates> {
+    if has_protocol(path)? {
+        return replay_estimates(path, model, Some(cfg));
+    }
+    let dekf = match model {
+        Some(model) => run(model, &load(path, None)?)?,
+        None => Vec::new(),
+    };
+    let offline = run_offline(path, cfg)?;
+    let slip = offline.times.iter().copied().zip(offline.estimates).collect();
+    Ok(ReplayEstimates { dekf, slip })
+}
+
+fn slip_channel(
+    metadata: std::collections::BTreeMap<String, String>,
+    estimates: &[(slidetrack_core::TimeNs, SlipEstimate)],
+) -> Result<NewChannel> {
+    let mut channel = NewChannel::of::<SlipEstimate>(metadata);
+    for (t, e) in estimates {
+        channel.push_json(*t, e)?;
+    }
+    Ok(channel)
+}
+
+fn dekf_channels(
+    model: &DekfModel,
+    path: &Path,
+    outputs: &[(slidetrack_core::TimeNs, DekfOutput)],
+) -> Result<[NewChannel; 2]> {
+    let model_name = path.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    let [derivative_meta, estimate_meta] = estimate_metadata(model, &model_name)?;
+    let mut derivative = NewChannel::of::<TactileDerivative>(derivative_meta);
+    for (t, o) in outputs {
+        derivative.push_json(*t, &TactileDerivative { values: o.measurement.clone() })?;
+    }
+    Ok([derivative, estimate_channel(model, estimate_meta, outputs)?])
 }

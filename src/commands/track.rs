@@ -221,6 +221,9 @@ fn track_on(
     println!("{}", report.summary_line());
     let status = status.lock().map(|s| s.clone()).unwrap_or_default();
     println!("  dEKF: {} steps; /tactile/derivative, /estimate/dekf recorded", status.dekf_steps);
+    if let Some(grasp) = status.grasp {
+        println!("  grasp detector: /estimate/slip recorded, last state {}", grasp.as_str());
+    }
     if let Some([p, v, base]) = status.dekf_errors.rmse() {
         println!(
             "  dEKF against the simulator's truth until the release: position RMSE {p:.3} cm (zero-motion baseline {base:.3} cm), velocity RMSE {v:.3} cm/s"

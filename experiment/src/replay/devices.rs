@@ -7,11 +7,12 @@ use std::sync::Arc;
 use slidetrack_control::ObserverError;
 use slidetrack_core::{
     ActuatorCommand, ActuatorSpec, Camera, CameraIntrinsics, Clock, DecoderCounters, DeviceError,
-    EncodedImage, ErrorKind, Frame, HandActuator, SimClock, SimTruth, TactileInfo, TactileSample,
-    TactileSource, TruthSource,
+    EncodedImage, ErrorKind, Frame, GripperObject, GripperStatus, HandActuator, HandMonitor, HandStatus,
+    SimClock, SimTruth, TactileInfo, TactileSample, TactileSource, TruthSource,
 };
 use slidetrack_session::{
-    ArucoDetection, ChannelMessage, CompressedImage, SimTruth as TruthMsg, TactileDecoder, TactileRaw,
+    ArucoDetection, ChannelMessage, CompressedImage, HandState, SimTruth as TruthMsg, TactileDecoder,
+    TactileRaw,
 };
 
 use super::stream::TopicStream;
@@ -192,6 +193,56 @@ impl HandActuator for ReplayHand {
 
     fn device(&self) -> &str {
         "replay hand"
+    }
+}
+
+/// `/hand/state` as the hand's monitor: the status recorded last at or
+/// before the replay clock, so the replay reads the hand's state after each
+/// scan as the recording did.
+///
+/// # Contract
+/// As [`HandMonitor`]: `status` returns at once, the newest recorded status
+/// not yet returned (older ones logged since the last call are skipped), or
+/// `None`; a corrupt message is a `Corrupt` error.
+pub struct ReplayHandMonitor {
+    states: TopicStream<HandState>,
+    clock: SimClock,
+    device: String,
+}
+
+impl ReplayHandMonitor {
+    /// The hand states of the session at `path`.
+    pub fn open(path: &Path, clock: SimClock) -> Result<Self, DeviceError> {
+        let device = format!("replay of {} hand", path.display());
+        Ok(ReplayHandMonitor { states: TopicStream::open(path, HandState::TOPIC, &device)?, clock, device })
+    }
+}
+
+/// The status a `/hand/state` message recorded at `t`.
+fn hand_status(t: slidetrack_core::TimeNs, h: HandState) -> HandStatus {
+    let gripper = h.gripper.map(|g| GripperStatus {
+        activated: g.activated,
+        object: GripperObject::from_bits(g.object),
+        fault: g.fault,
+        requested_steps: g.requested,
+        position_steps: g.position,
+        current_ma: g.current_ma,
+    });
+    HandStatus { t, finger_travel_m: h.finger_travel, opening_m: h.opening, gripper }
+}
+
+impl HandMonitor for ReplayHandMonitor {
+    fn status(&mut self) -> Result<Option<HandStatus>, DeviceError> {
+        let now = self.clock.now();
+        let mut latest = None;
+        while let Some(m) = self.states.next_until(now)? {
+            latest = Some(hand_status(m.log_time, m.message));
+        }
+        Ok(latest)
+    }
+
+    fn device(&self) -> &str {
+        &self.device
     }
 }
 

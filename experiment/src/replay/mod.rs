@@ -11,6 +11,8 @@
 //!   `/aruco/detections` the marker source: the marker filter sees the
 //!   detections the recording saw.
 //! - `/sim/truth` is the simulator's truth, when the session has it.
+//! - `/hand/state` is the hand's monitor, when the session has it: the
+//!   observers read the recorded status after each scan, as live.
 //! - The hand takes commands and moves nothing.
 //!
 //! A replay is as deterministic as the code it runs: `track --rig replay` on
@@ -28,21 +30,23 @@ use slidetrack_control::{
     run_trial,
 };
 use slidetrack_core::{
-    ActuatorCommand, DecoderCounters, Frame, Phase, SimTruth, TactileInfo, TactileSample, TimeNs,
+    ActuatorCommand, DecoderCounters, Frame, HandStatus, Phase, SimTruth, TactileInfo, TactileSample, TimeNs,
 };
 use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
+use slidetrack_estimators::slip::GraspDetectorConfig;
 use slidetrack_session::{
-    ArucoDetection, CameraCalibration, ChannelMessage, CompressedImage, ProtocolEvent as EventMsg,
-    ReadOptions, SESSION_METADATA, SessionInfo, SimTruth as TruthMsg, TactileDecoder, TactileRaw,
-    read_channel,
+    ArucoDetection, CameraCalibration, ChannelMessage, CompressedImage, HandState, ProtocolEvent as EventMsg,
+    ReadOptions, SESSION_METADATA, SessionInfo, SimTruth as TruthMsg, SlipEstimate, TactileDecoder,
+    TactileRaw, read_channel,
 };
 use slidetrack_sim::ObjectConfig;
 
-pub use devices::{RecordedMarkers, ReplayCamera, ReplayHand, ReplayTactile, ReplayTruth};
+pub use devices::{RecordedMarkers, ReplayCamera, ReplayHand, ReplayHandMonitor, ReplayTactile, ReplayTruth};
 pub use stream::{Recorded, TopicStream};
 
 use crate::channels::recorded_tactile;
 use crate::dekf_run::DekfStage;
+use crate::grasp_state::SlipStage;
 use crate::marker::MarkerSource;
 use crate::observer::TrialExtension;
 use crate::rig::{RigSetup, TrialSpec, configured_actuator, protocol_for};
@@ -74,6 +78,8 @@ pub struct ReplaySession {
     pub has_truth: bool,
     /// True when it has the tactile decoder's counters.
     pub has_decoder: bool,
+    /// True when it has the hand's states (`/hand/state`).
+    pub has_hand_state: bool,
 }
 
 /// Which recorded devices a replay plays.
@@ -130,6 +136,7 @@ impl ReplaySession {
             camera,
             has_truth: has(TruthMsg::TOPIC),
             has_decoder: has(TactileDecoder::TOPIC),
+            has_hand_state: has(HandState::TOPIC),
         })
     }
 
@@ -165,6 +172,12 @@ impl ReplaySession {
             }
             _ => (None, None),
         };
+        let hand_monitor = if self.has_hand_state {
+            Some(Box::new(ReplayHandMonitor::open(path, clock.clone())?)
+                as Box<dyn slidetrack_core::HandMonitor>)
+        } else {
+            None
+        };
         let truth = if self.has_truth && options.truth {
             Some(Box::new(ReplayTruth::open(path, clock)?) as Box<dyn slidetrack_core::TruthSource>)
         } else {
@@ -176,7 +189,7 @@ impl ReplaySession {
             camera,
             clock: shared_clock,
             truth,
-            hand_monitor: None,
+            hand_monitor,
         };
         let extra_metadata =
             std::collections::BTreeMap::from([("replay_of".to_string(), self.path.display().to_string())]);
@@ -276,6 +289,11 @@ impl TrialObserver for ExtensionObserver<'_> {
     fn on_decoder(&mut self, _t: TimeNs, _counters: &DecoderCounters) -> Result<(), ObserverError> {
         Ok(())
     }
+
+    fn on_hand_status(&mut self, status: &HandStatus) -> Result<(), ObserverError> {
+        self.extension.on_hand_status(status);
+        Ok(())
+    }
 }
 
 /// Replays `session` with `extension` running on it, recording nothing.
@@ -290,16 +308,21 @@ pub fn replay_with(
     Ok(run_trial(&mut rig, &mut protocol, &mut observer, &AtomicBool::new(false)))
 }
 
-/// Collects the dEKF's estimates of a replay.
-struct DekfCollector {
-    stage: DekfStage,
-    outputs: Vec<(TimeNs, DekfOutput)>,
+/// Collects the estimates of a replay: the dEKF's and the grasp detector's.
+#[derive(Default)]
+struct EstimateCollector {
+    dekf: Option<DekfStage>,
+    slip: Option<SlipStage>,
+    estimates: ReplayEstimates,
 }
 
-impl TrialExtension for DekfCollector {
+impl TrialExtension for EstimateCollector {
     fn on_zeroed(&mut self, t: TimeNs, zeroed: &Baseline) -> Result<(), ObserverError> {
-        if let Some(out) = self.stage.on_scan(t, zeroed) {
-            self.outputs.push((t, out));
+        if let Some(out) = self.dekf.as_mut().and_then(|d| d.on_scan(t, zeroed)) {
+            self.estimates.dekf.push((t, out));
+        }
+        if let Some(slip) = self.slip.as_mut() {
+            self.estimates.slip.push((t, slip.on_scan(t, zeroed)));
         }
         Ok(())
     }
@@ -307,21 +330,55 @@ impl TrialExtension for DekfCollector {
     fn on_frame(&mut self, _frame: &Frame, _position_on_axis_m: Option<f64>) -> Result<(), ObserverError> {
         Ok(())
     }
+
+    fn on_hand_status(&mut self, status: &HandStatus) {
+        if let Some(slip) = self.slip.as_mut() {
+            slip.set_opening(status.opening_m);
+        }
+    }
+}
+
+/// The estimates of a replay, at the log times of their scans.
+#[derive(Clone, Debug, Default)]
+pub struct ReplayEstimates {
+    /// The dEKF's, at every filter step (none without a model).
+    pub dekf: Vec<(TimeNs, DekfOutput)>,
+    /// The grasp detector's (`/estimate/slip`), at every zeroed scan (none
+    /// without its settings).
+    pub slip: Vec<(TimeNs, SlipEstimate)>,
 }
 
 /// The dEKF `model` on a replay of the session at `path`: its estimates at
 /// every filter step of the whole recording, as `track` computed them live.
 pub fn replay_dekf(path: &Path, model: &DekfModel) -> Result<Vec<(TimeNs, DekfOutput)>> {
+    Ok(replay_estimates(path, Some(model), None)?.dekf)
+}
+
+/// The dEKF `model` and the grasp detector with `slip` settings (either,
+/// both) on a replay of the session at `path`, as `track` runs them live:
+/// the dEKF reads the tactile scans, the detector also the recorded hand
+/// states (`/hand/state`), one after each scan.
+pub fn replay_estimates(
+    path: &Path,
+    model: Option<&DekfModel>,
+    slip: Option<GraspDetectorConfig>,
+) -> Result<ReplayEstimates> {
     let session = ReplaySession::open(path)?;
-    check_rate(&session, model)?;
-    let mut collector =
-        DekfCollector { stage: DekfStage::new(model, &session.tactile)?, outputs: Vec::new() };
-    // The dEKF reads tactile data only: no camera, no truth.
-    let outcome = replay_with(&session, ReplayOptions { camera: false, truth: false }, &mut collector)?;
-    if let Some(reason) = outcome.abort.filter(|_| collector.outputs.is_empty()) {
-        bail!("{}: the replay ended before the dEKF ran: {reason}", path.display());
+    let mut collector = EstimateCollector::default();
+    if let Some(model) = model {
+        check_rate(&session, model)?;
+        collector.dekf = Some(DekfStage::new(model, &session.tactile)?);
     }
-    Ok(collector.outputs)
+    if let Some(cfg) = slip {
+        collector.slip = Some(SlipStage::new(cfg, &session.tactile)?);
+    }
+    // The estimators read tactile data and the hand only: no camera, no truth.
+    let outcome = replay_with(&session, ReplayOptions { camera: false, truth: false }, &mut collector)?;
+    let estimates = collector.estimates;
+    if let Some(reason) = outcome.abort.filter(|_| estimates.dekf.is_empty() && estimates.slip.is_empty()) {
+        bail!("{}: the replay ended before the estimators ran: {reason}", path.display());
+    }
+    Ok(estimates)
 }
 
 /// Checks that `model` was trained at the session's tactile rate.

@@ -37,6 +37,36 @@ fn log_one<T: ChannelMessage>(rec: &Recorder, t: TimeNs, message: T) {
     rec.log_json(&channel, t, t, 0, &message).unwrap();
 }
 
+/// Logs the in-hand channels (planar and pose truth, planar estimate, slip
+/// estimate) at `t`, message `i` of two (`k` = `i` as a number).
+fn log_in_hand(rec: &Recorder, t: TimeNs, i: u64, k: f64) {
+    let planar = PlanarState {
+        translation_m: [0.001 * k, -0.002],
+        rotation_rad: 0.03 * k,
+        velocity_m_per_s: [0.01, 0.0],
+        angular_velocity_rad_per_s: -0.1,
+    };
+    log_one(rec, t, GroundTruthPlanar(planar));
+    log_one(
+        rec,
+        t,
+        GroundTruthPose {
+            position_in_hand_m: [0.01, -0.02, 0.2 + 0.001 * k],
+            orientation_in_hand: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+            velocity_in_hand_m_per_s: [0.0, 0.001, 0.0],
+            angular_velocity_in_hand_rad_per_s: [0.1, 0.0, 0.0],
+            std: [1e-4; 12],
+        },
+    );
+    log_one(rec, t, PlanarEstimate { state: planar, covariance: vec![1e-6; 36] });
+    let state = if i == 0 { GraspStateName::Holding } else { GraspStateName::Dropped };
+    log_one(
+        rec,
+        t,
+        SlipEstimate { state, load: 5000.0 - 4900.0 * k, load_ratio: 1.0 - 0.98 * k, slip_score: 0.5 },
+    );
+}
+
 /// Logs two messages on `rec` on every channel not in [`EveryChannel`].
 pub(super) fn log_other_channels(rec: &Recorder) {
     for i in 0..2 {
@@ -77,31 +107,7 @@ pub(super) fn log_other_channels(rec: &Recorder) {
         log_one(rec, t, GripperCommand { position: 140 + i as u16, speed: 128, force: 64, clamped: i == 1 });
         log_one(rec, t, TactileDerivative { values: vec![1.5, -2.25, 0.0, k] });
         log_one(rec, t, DekfEstimate(sliding(k)));
-        let planar = PlanarState {
-            translation_m: [0.001 * k, -0.002],
-            rotation_rad: 0.03 * k,
-            velocity_m_per_s: [0.01, 0.0],
-            angular_velocity_rad_per_s: -0.1,
-        };
-        log_one(rec, t, GroundTruthPlanar(planar));
-        log_one(
-            rec,
-            t,
-            GroundTruthPose {
-                position_in_hand_m: [0.01, -0.02, 0.2 + 0.001 * k],
-                orientation_in_hand: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
-                velocity_in_hand_m_per_s: [0.0, 0.001, 0.0],
-                angular_velocity_in_hand_rad_per_s: [0.1, 0.0, 0.0],
-                std: [1e-4; 12],
-            },
-        );
-        log_one(rec, t, PlanarEstimate { state: planar, covariance: vec![1e-6; 36] });
-        let state = if i == 0 { GraspStateName::Holding } else { GraspStateName::Dropped };
-        log_one(
-            rec,
-            t,
-            SlipEstimate { state, load: 5000.0 - 4900.0 * k, load_ratio: 1.0 - 0.98 * k, slip_score: 0.5 },
-        );
+        log_in_hand(rec, t, i, k);
         log_one(rec, t, ArucoEstimate(sliding(k + 1.0)));
 
         let jpeg = EncodedImage { format: "jpeg".into(), bytes: vec![0xFF, 0xD8, i as u8, 0xFF, 0xD9] };
