@@ -164,6 +164,10 @@ fn a_planar_model_trains_evaluates_replays_and_tracks() {
     let estimates =
         read_channel::<PlanarEstimate>(&replayed, ReadOptions::default()).expect("planar estimates");
     assert!(estimates.len() > 50 && estimates.iter().all(|(_, e)| e.covariance.len() == 36));
+    // The NumPy implementation of docs/model-format.md runs the planar
+    // filter on the replay's inputs and finds the same estimates.
+    let r = check_against_the_reference(s(&model), &replayed, estimates.len() as u64);
+    assert_eq!(r["state"], "planar");
 
     let tracked = dir.path().join("track.mcap");
     ok(&[
