@@ -30,7 +30,8 @@ use std::collections::BTreeMap;
 use slidetrack_core::{TactileInfo, TimeNs};
 use slidetrack_estimators::derivative::{DerivativeFilter, DerivativeFilterConfig};
 use slidetrack_estimators::slip::{
-    GraspDetector, GraspDetectorConfig, GraspError, GraspReading, GraspScan, GraspState,
+    DEFAULT_CONTACT_LOAD_COUNTS, GraspDetector, GraspDetectorConfig, GraspError, GraspReading, GraspScan,
+    GraspState,
 };
 use slidetrack_session::{GraspStateName, SlipEstimate};
 
@@ -105,26 +106,47 @@ pub struct SlipStage {
     previous: Vec<[f64; 3]>,
     score: f64,
     opening_m: Option<f64>,
+    /// The hand is commanded to let go.
+    releasing: bool,
 }
 
 impl SlipStage {
     /// The stage on scans of `tactile` with the detector settings `cfg`;
     /// fails on invalid settings.
+    /// The contact level is the simulated rig's ([`for_source`]) on a
+    /// simulated source when `cfg` has the default one.
     pub fn new(cfg: GraspDetectorConfig, tactile: &TactileInfo) -> Result<SlipStage, GraspError> {
         let taxels = tactile.layout.taxel_count();
         Ok(SlipStage {
-            detector: GraspDetector::new(cfg)?,
+            detector: GraspDetector::new(for_source(cfg, tactile))?,
             derivative: DerivativeFilter::new(shear_rate_filter(), 2 * taxels),
             xy: vec![f64::NAN; 2 * taxels],
             previous: Vec::with_capacity(taxels),
             score: 0.0,
             opening_m: None,
+            releasing: false,
         })
     }
 
     /// The detector's settings.
     pub fn config(&self) -> &GraspDetectorConfig {
         self.detector.config()
+    }
+
+    /// The hand is now commanded to let go (the protocol's release, an
+    /// abort, the end): a loss of load from here on is a release.
+    pub fn set_releasing(&mut self) {
+        self.releasing = true;
+    }
+
+    /// Whether a protocol event says the hand is letting go.
+    pub fn protocol_event(&mut self, event: &slidetrack_core::Phase) {
+        if matches!(
+            event,
+            slidetrack_core::Phase::Release | slidetrack_core::Phase::Aborted | slidetrack_core::Phase::Done
+        ) {
+            self.set_releasing();
+        }
     }
 
     /// The gripper opening the hand reported (m); `None` keeps the latest.
@@ -155,6 +177,7 @@ impl SlipStage {
         }
         let mut scan = GraspScan::load(t_s, normal_load_counts(zeroed)).with_slip(self.score);
         scan.opening_m = self.opening_m;
+        scan.releasing = self.releasing;
         let r = self.detector.update(scan);
         SlipEstimate {
             state: state_name(r.state),
@@ -168,6 +191,21 @@ impl SlipStage {
     pub fn metadata(&self) -> serde_json::Result<BTreeMap<String, String>> {
         channel_metadata(self.config())
     }
+}
+
+/// The normal load at which the simulated rig's hold begins (counts): its
+/// modules' summed z peaks at about 3,800 counts in a grasp (box, default
+/// rig), under the XELA patches' contact level.
+pub const SIM_CONTACT_LOAD_COUNTS: f64 = 1_000.0;
+
+/// `cfg` for scans of `tactile`: on the simulated rig (device `sim`), the
+/// default contact level becomes [`SIM_CONTACT_LOAD_COUNTS`]; a level set
+/// by the caller stays.
+pub fn for_source(mut cfg: GraspDetectorConfig, tactile: &TactileInfo) -> GraspDetectorConfig {
+    if tactile.device == "sim" && cfg.contact_load_counts == DEFAULT_CONTACT_LOAD_COUNTS {
+        cfg.contact_load_counts = SIM_CONTACT_LOAD_COUNTS;
+    }
+    cfg
 }
 
 /// The channel metadata of `/estimate/slip` written by a stage with the

@@ -398,6 +398,7 @@ impl TrialExtension for LiveTrackers {
         if matches!(event.phase, Phase::Release | Phase::Aborted | Phase::Done) {
             self.released = true;
         }
+        self.slip.protocol_event(&event.phase);
     }
 }
 

@@ -8,14 +8,17 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
 use slidetrack_estimators::slip::GraspDetectorConfig;
+use slidetrack_experiment::channels::recorded_tactile;
 use slidetrack_experiment::dataset::load;
 use slidetrack_experiment::dekf_eval::has_protocol;
 use slidetrack_experiment::dekf_run::{estimate_channel, estimate_metadata, load_model, run};
 use slidetrack_experiment::grasp_eval::run_offline;
-use slidetrack_experiment::grasp_state::channel_metadata;
+use slidetrack_experiment::grasp_state::{channel_metadata, for_source};
 use slidetrack_experiment::plot::dekf::plot_replay;
 use slidetrack_experiment::replay::{ReplayEstimates, replay_estimates};
-use slidetrack_session::{NewChannel, ReadOptions, SlipEstimate, TactileDerivative, rewrite_session};
+use slidetrack_session::{
+    NewChannel, ReadOptions, SessionInfo, SlipEstimate, TactileDerivative, rewrite_session,
+};
 
 use crate::cli::ReplayArgs;
 
@@ -29,7 +32,14 @@ pub fn run_cmd(args: &ReplayArgs) -> Result<()> {
     }
     let cfg = GraspDetectorConfig::default();
     let estimates = estimates(&args.file, model.as_ref(), cfg)?;
-    let mut channels = vec![slip_channel(channel_metadata(&cfg)?, &estimates.slip)?];
+    // The settings the stage ran with (the simulated rig's contact level on
+    // a simulated session).
+    let info = SessionInfo::read(&args.file, ReadOptions::default())?;
+    let ran = match recorded_tactile(&args.file, &info)? {
+        Some(tactile) => for_source(cfg, &tactile),
+        None => cfg,
+    };
+    let mut channels = vec![slip_channel(channel_metadata(&ran)?, &estimates.slip)?];
     if let (Some(model), Some(path)) = (&model, &args.model) {
         channels.extend(dekf_channels(model, path, &estimates.dekf)?);
     }

@@ -141,12 +141,21 @@ pub struct GraspScan {
     /// Gripper opening (m): distance between the fingers, or anything that
     /// grows by the same amount when the gripper opens.
     pub opening_m: Option<f64>,
+    /// The hand is commanded to let go (a protocol's release phase): a loss
+    /// of load is then a release whatever the opening says.
+    #[serde(default)]
+    pub releasing: bool,
 }
 
 impl GraspScan {
     /// A scan with only the load (counts) at `t_s` (s).
     pub fn load(t_s: f64, load_counts: f64) -> GraspScan {
-        GraspScan { t_s, load_counts, slip_score: None, opening_m: None }
+        GraspScan { t_s, load_counts, slip_score: None, opening_m: None, releasing: false }
+    }
+
+    /// The same scan while the hand is commanded to let go.
+    pub fn releasing(self) -> GraspScan {
+        GraspScan { releasing: true, ..self }
     }
 
     /// The same scan with a slip score (the caller's unit).
@@ -201,6 +210,7 @@ struct ScanBits {
     load: Option<u64>,
     slip: Option<u64>,
     opening: Option<u64>,
+    releasing: bool,
 }
 
 /// A finite value, or `None`.
@@ -289,6 +299,7 @@ impl GraspDetector {
             load: load.map(f64::to_bits),
             slip: slip.map(f64::to_bits),
             opening: opening.map(f64::to_bits),
+            releasing: scan.releasing,
         };
         if !scan.t_s.is_finite() || self.last_bits == Some(bits) {
             self.last.t_s = scan.t_s;
@@ -302,7 +313,7 @@ impl GraspDetector {
             self.see_opening(opening);
         }
         if let Some(load) = load {
-            self.step_load(load, opening);
+            self.step_load(load, opening, scan.releasing);
         }
         if self.state.is_held()
             && let (Some(score), Some(hysteresis)) = (slip, self.cfg.slip)
@@ -325,7 +336,7 @@ impl GraspDetector {
     }
 
     /// The load rules: contact, drop or release, back to Idle.
-    fn step_load(&mut self, load: f64, opening: Option<f64>) {
+    fn step_load(&mut self, load: f64, opening: Option<f64>, releasing: bool) {
         match self.state {
             GraspState::Idle if load >= self.cfg.contact_load_counts => {
                 self.state = GraspState::Holding;
@@ -339,7 +350,8 @@ impl GraspDetector {
             GraspState::Holding | GraspState::Slipping => {
                 self.peak_load_counts = self.peak_load_counts.max(load);
                 if load / self.peak_load_counts < self.cfg.drop_load_ratio {
-                    let opened = self.opening_growth_m().is_some_and(|g| g > self.cfg.release_opening_m);
+                    let opened =
+                        releasing || self.opening_growth_m().is_some_and(|g| g > self.cfg.release_opening_m);
                     self.state = if opened { GraspState::Released } else { GraspState::Dropped };
                 }
             }

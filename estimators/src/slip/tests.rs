@@ -270,6 +270,9 @@ fn tactile_release_skips_a_dip_that_recovers_and_finds_the_real_fall() {
         [0.0, 3000.0, 50_000.0, 100_000.0, 40_000.0, 45_000.0, 80_000.0, 90_000.0, 30_000.0, 500.0, 0.0];
     let times: Vec<f64> = (0..loads.len()).map(|k| k as f64 * DT_S).collect();
     let release = tactile_release(&times, &loads, &cfg).expect("same lengths");
+    // At sample 8 the load (30,000) is below half its level before (the
+    // median of 50,000 .. 90,000 since the hold began: 65,000) and never
+    // rises back: the collapse.
     assert_eq!(release, Some(times[8]));
     // Half the peak exactly counts as not released; ending above: no release.
     let recovered = [0.0, 100_000.0, 40_000.0, 50_000.0];
@@ -279,6 +282,20 @@ fn tactile_release_skips_a_dip_that_recovers_and_finds_the_real_fall() {
     let with_nan = [0.0, 100_000.0, f64::NAN, 1000.0];
     assert_eq!(tactile_release(&times[..4], &with_nan, &cfg), Ok(Some(times[3])));
     assert!(matches!(tactile_release(&times, &loads[..3], &cfg), Err(GraspError::LengthMismatch { .. })));
+}
+
+/// Catches a reference against the running peak: a grasp that relaxes to
+/// a third of its peak over seconds, then collapses, is released at the
+/// collapse.
+#[test]
+fn tactile_release_is_the_collapse_not_a_slow_relaxation() {
+    let cfg = GraspDetectorConfig::default();
+    let dt = 0.1;
+    let mut loads: Vec<f64> = (0..100).map(|k| 100_000.0 - 700.0 * k as f64).collect();
+    loads.extend([20_000.0, 800.0, 500.0, 400.0]);
+    let times: Vec<f64> = (0..loads.len()).map(|k| k as f64 * dt).collect();
+    let release = tactile_release(&times, &loads, &cfg).expect("same lengths").expect("released");
+    assert!((release - times[101]).abs() < 1e-12, "release at {release} s");
 }
 
 /// Catches a delay with the wrong sign, and entries counted per scan rather

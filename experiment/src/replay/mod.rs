@@ -336,6 +336,12 @@ impl TrialExtension for EstimateCollector {
             slip.set_opening(status.opening_m);
         }
     }
+
+    fn on_event(&mut self, _t: TimeNs, event: &ProtocolEvent) {
+        if let Some(slip) = self.slip.as_mut() {
+            slip.protocol_event(&event.phase);
+        }
+    }
 }
 
 /// The estimates of a replay, at the log times of their scans.

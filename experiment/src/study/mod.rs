@@ -18,9 +18,11 @@ use slidetrack_session::{ReadOptions, SESSION_METADATA, SessionInfo};
 pub use tables::{OBJECTS, Tables};
 
 use crate::dataset::{ChannelSet, SessionData, TruthSource, expand, load};
-use crate::dekf_eval::score_session;
+use crate::dekf_eval::score_outputs_beside;
+use crate::dekf_run::run;
 use crate::dekf_run::{Scores, mean_scores, save_model};
 use crate::dekf_train::{TrainSpec, fit_sessions};
+use crate::linear_baseline::{LinearBaseline, path_for};
 use crate::pipeline::{DataSpec, collect, label};
 use crate::protocol::Protocol;
 
@@ -166,9 +168,13 @@ pub fn data(s: &StudySpec, stop: &AtomicBool) -> Result<Sets> {
     Ok(sets)
 }
 
-/// Mean scores of `model` on `sessions`.
-fn mean_of(model: &DekfModel, sessions: &[SessionData]) -> Result<Scores> {
-    let all = sessions.iter().map(|d| score_session(model, d)).collect::<Result<Vec<_>>>()?;
+/// Mean scores of `model` on `sessions`, beside the linear-map baseline
+/// fitted on the model's training sessions.
+fn mean_of(model: &DekfModel, linear: &LinearBaseline, sessions: &[SessionData]) -> Result<Scores> {
+    let all = sessions
+        .iter()
+        .map(|d| score_outputs_beside(&run(model, d)?, d, Some(linear)))
+        .collect::<Result<Vec<_>>>()?;
     Ok(mean_scores(&all))
 }
 
@@ -197,6 +203,8 @@ pub fn train_and_score(spec: &ModelSpec, sets: &Sets, s: &StudySpec) -> Result<O
     });
     let trained = fit_sessions(&train_spec, &train, &mut |_| {})?;
     save_model(&trained.model, &path)?;
+    let linear = LinearBaseline::fit(&trained.model, &train)?;
+    linear.save(&path_for(&path))?;
     let last = trained.epochs.last().map_or([f64::NAN; 2], |e| e.rmse);
     let model = &trained.model;
     let mut scores = Vec::new();
@@ -206,9 +214,9 @@ pub fn train_and_score(spec: &ModelSpec, sets: &Sets, s: &StudySpec) -> Result<O
         if !(own || xy_derivative) {
             continue;
         }
-        let test = mean_of(model, &sets[&(object, true)])?;
+        let test = mean_of(model, &linear, &sets[&(object, true)])?;
         let train = if own && spec.channels == ChannelSet::Xyz {
-            Some(mean_of(model, &sets[&(object, false)])?)
+            Some(mean_of(model, &linear, &sets[&(object, false)])?)
         } else {
             None
         };

@@ -23,6 +23,18 @@ pub struct Tables {
     entries: BTreeMap<(String, String), Entry>,
 }
 
+/// The baselines of one object's xy model on its testing data.
+struct Baselines {
+    zero_position_cm: Option<f64>,
+    zero_velocity_cmps: Option<f64>,
+    linear_position_cm: Option<f64>,
+    linear_velocity_cmps: Option<f64>,
+    /// The dEKF's position RMSE over zero motion's.
+    over_zero: Option<f64>,
+    /// The dEKF's position RMSE over the linear map's.
+    over_linear: Option<f64>,
+}
+
 /// A scalar of [`Scores`].
 type Metric = fn(&Scores) -> f64;
 const POS_RMSE: Metric = |s| s.position_rmse_cm;
@@ -127,17 +139,24 @@ impl Tables {
         ]
     }
 
-    /// The zero-motion baseline's testing position RMSE per object (cm).
-    fn baselines(&self) -> Vec<(String, Option<f64>, Option<f64>)> {
+    /// The baselines of the xy models on their testing data, per object:
+    /// zero motion (position and velocity RMSE), the linear map, and the
+    /// dEKF's position RMSE over each.
+    fn baselines(&self) -> Vec<(String, Baselines)> {
         OBJECTS
             .iter()
             .map(|o| {
-                let e = self.entries.get(&(format!("{o}-xy"), o.to_string()));
-                (
-                    o.to_string(),
-                    e.map(|e| e.test.baseline_position_rmse_cm),
-                    e.map(|e| e.test.position_rmse_cm / e.test.baseline_position_rmse_cm.max(1e-12)),
-                )
+                let e = self.entries.get(&(format!("{o}-xy"), o.to_string())).map(|e| &e.test);
+                let ratio = |d: Option<f64>| e.zip(d).map(|(e, d)| e.position_rmse_cm / d.max(1e-12));
+                let b = Baselines {
+                    zero_position_cm: e.map(|e| e.baseline_position_rmse_cm),
+                    zero_velocity_cmps: e.map(|e| e.baseline_velocity_rmse_cmps),
+                    linear_position_cm: e.and_then(|e| e.linear_position_rmse_cm),
+                    linear_velocity_cmps: e.and_then(|e| e.linear_velocity_rmse_cmps),
+                    over_zero: ratio(e.map(|e| e.baseline_position_rmse_cm)),
+                    over_linear: ratio(e.and_then(|e| e.linear_position_rmse_cm)),
+                };
+                (o.to_string(), b)
             })
             .collect()
     }
@@ -162,12 +181,20 @@ impl Tables {
                 out += &format!("| {name} | {} |\n", values.iter().map(fmt).collect::<Vec<_>>().join(" | "));
             }
         }
-        out += "\n## Zero-motion baseline (p = 0), testing data\n\n| data set | pos RMSE (cm) | xy dEKF / baseline |\n|---|---:|---:|\n";
-        for (o, b, ratio) in self.baselines() {
+        out += "\n## Baselines on the xy models' testing data: zero motion (p = 0, v = 0) and the linear map \
+                on the same channels and training sessions\n\n| data set | zero pos RMSE (cm) | zero vel RMSE (cm/s) | \
+                linear pos RMSE (cm) | linear vel RMSE (cm/s) | xy dEKF / zero | xy dEKF / linear |\n\
+                |---|---:|---:|---:|---:|---:|---:|\n";
+        let pct = |r: Option<f64>| r.map_or("-".into(), |r| format!("{:.0} %", r * 100.0));
+        for (o, b) in self.baselines() {
             out += &format!(
-                "| {o} | {} | {} |\n",
-                fmt(&b),
-                ratio.map_or("-".into(), |r| format!("{:.0} %", r * 100.0))
+                "| {o} | {} | {} | {} | {} | {} | {} |\n",
+                fmt(&b.zero_position_cm),
+                fmt(&b.zero_velocity_cmps),
+                fmt(&b.linear_position_cm),
+                fmt(&b.linear_velocity_cmps),
+                pct(b.over_zero),
+                pct(b.over_linear)
             );
         }
         out
@@ -195,7 +222,17 @@ impl Tables {
         let baseline: serde_json::Map<String, Value> = self
             .baselines()
             .into_iter()
-            .map(|(o, b, r)| (o, json!({"baseline_position_rmse_cm": b, "xy_ratio": r})))
+            .map(|(o, b)| {
+                let v = json!({
+                    "baseline_position_rmse_cm": b.zero_position_cm,
+                    "baseline_velocity_rmse_cmps": b.zero_velocity_cmps,
+                    "linear_position_rmse_cm": b.linear_position_cm,
+                    "linear_velocity_rmse_cmps": b.linear_velocity_cmps,
+                    "xy_ratio": b.over_zero,
+                    "xy_over_linear": b.over_linear,
+                });
+                (o, v)
+            })
             .collect();
         tables.insert("baseline".into(), Value::Object(baseline));
         Value::Object(tables)
