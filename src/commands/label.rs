@@ -47,29 +47,7 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
     } else {
         None
     };
-    let joint_in_hand = match (args.jointly, options.in_hand.as_mut()) {
-        (true, Some(o)) => {
-            let read = ReadOptions { recover: args.recover };
-            let inputs = args.files.iter().map(|f| read_inputs(f, read)).collect::<Result<Vec<_>, _>>()?;
-            let record = in_hand_jointly(&inputs, o, true)?;
-            if let Some(record) = &record {
-                o.params = (&record.pose).into();
-                o.contact = ContactSource::Given(record.contact.clone());
-                options.in_hand_joint = Some(record.how.clone());
-                if !args.json {
-                    println!("{}", in_hand_text(record));
-                }
-                if let Some(path) = &args.save_in_hand {
-                    std::fs::write(path, serde_json::to_string_pretty(record)?)
-                        .with_context(|| format!("cannot write {}", path.display()))?;
-                }
-            } else if args.save_in_hand.is_some() {
-                bail!("no session has a hold with marker poses: nothing to save in --save-in-hand");
-            }
-            record
-        }
-        _ => None,
-    };
+    let joint_in_hand = if args.jointly { in_hand_jointly_for(args, &mut options)? } else { None };
     let bar = if quiet || args.files.len() < 2 {
         ProgressBar::hidden()
     } else {
@@ -121,6 +99,33 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// With `--jointly`: the pose smoother's densities tuned on all the files
+/// and the contact frame estimated from all their holds, put into
+/// `options` (and saved with `--save-in-hand`); `None` without in-hand
+/// labelling or without a hold.
+fn in_hand_jointly_for(args: &LabelArgs, options: &mut LabelOptions) -> Result<Option<InHandRecord>> {
+    let Some(o) = options.in_hand.as_mut() else { return Ok(None) };
+    let read = ReadOptions { recover: args.recover };
+    let inputs = args.files.iter().map(|f| read_inputs(f, read)).collect::<Result<Vec<_>, _>>()?;
+    let Some(record) = in_hand_jointly(&inputs, o, true)? else {
+        if args.save_in_hand.is_some() {
+            bail!("no session has a hold with marker poses: nothing to save in --save-in-hand");
+        }
+        return Ok(None);
+    };
+    o.params = (&record.pose).into();
+    o.contact = ContactSource::Given(record.contact.clone());
+    options.in_hand_joint = Some(record.how.clone());
+    if !args.json {
+        println!("{}", in_hand_text(&record));
+    }
+    if let Some(path) = &args.save_in_hand {
+        std::fs::write(path, serde_json::to_string_pretty(&record)?)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(Some(record))
 }
 
 /// The in-hand labelling `args` ask for (`None` with `--no-in-hand`).

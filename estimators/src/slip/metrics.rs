@@ -65,7 +65,9 @@ pub fn tactile_release(
     for k in h + 1..samples.len() {
         let t = samples[k].0;
         window.clear();
-        window.extend(samples[h..k].iter().filter(|(s, _)| *s >= t - REFERENCE_LEVEL_WINDOW_S).map(|(_, l)| *l));
+        window.extend(
+            samples[h..k].iter().filter(|(s, _)| *s >= t - REFERENCE_LEVEL_WINDOW_S).map(|(_, l)| *l),
+        );
         if window.is_empty() {
             continue;
         }

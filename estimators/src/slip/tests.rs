@@ -211,6 +211,7 @@ fn non_finite_inputs_keep_the_state_and_do_not_poison_later_decisions() {
             load_counts: bad,
             slip_score: Some(0.01 * step),
             opening_m: Some(bad),
+            releasing: false,
         };
         let r = d.update(scan);
         assert_eq!((r.state, r.fresh), (GraspState::Holding, true), "{bad}");
@@ -282,6 +283,23 @@ fn tactile_release_skips_a_dip_that_recovers_and_finds_the_real_fall() {
     let with_nan = [0.0, 100_000.0, f64::NAN, 1000.0];
     assert_eq!(tactile_release(&times[..4], &with_nan, &cfg), Ok(Some(times[3])));
     assert!(matches!(tactile_release(&times, &loads[..3], &cfg), Err(GraspError::LengthMismatch { .. })));
+}
+
+/// Catches a drop rule that ignores the hand's command: a loss of load
+/// while the hand is told to let go (the protocol's release) is a release,
+/// without any opening reported; the same loss without it is a drop.
+#[test]
+fn a_loss_of_load_while_releasing_is_a_release() {
+    for (releasing, expected) in [(true, GraspState::Released), (false, GraspState::Dropped)] {
+        let mut d = GraspDetector::new(GraspDetectorConfig::default()).expect("valid");
+        d.update(GraspScan::load(0.0, 20_000.0));
+        d.update(GraspScan::load(0.1, 21_000.0));
+        let mut scan = GraspScan::load(0.2, 100.0);
+        if releasing {
+            scan = scan.releasing();
+        }
+        assert_eq!(d.update(scan).state, expected);
+    }
 }
 
 /// Catches a reference against the running peak: a grasp that relaxes to
