@@ -29,6 +29,11 @@ def folds(cv):
     return rows
 
 
+def group_order(name):
+    """Objects by number, then other folder names (one per trial) in order."""
+    return (0, int(name), "") if name.isdigit() else (1, 0, name)
+
+
 def pooled(rows, get):
     """The root of the mean squared value of `get(s)` over every step."""
     pairs = [(get(s), s["steps"]) for _, _, s in rows if get(s) is not None]
@@ -43,7 +48,7 @@ def sliding(rows):
         "linear": lambda s: s.get("linear_position_rmse_cm"),
     }
     print(f"{'object':>8} {'sessions':>8} {'dEKF cm':>8} {'zero cm':>8} {'linear cm':>9}")
-    for obj in sorted({o for o, _, _ in rows}, key=int):
+    for obj in sorted({o for o, _, _ in rows}, key=group_order):
         part = [r for r in rows if r[0] == obj]
         print(f"{obj:>8} {len(part):>8} " + " ".join(f"{pooled(part, g):8.3f}" for g in get.values()))
     for label, flag in (("kept", False), ("dropped", True)):
@@ -68,7 +73,7 @@ def planar(rows):
     names = ("dekf", "zero", "linear")
     print(f"{'object':>8} {'sessions':>8} " + " ".join(f"{'T ' + n:>9}" for n in names)
           + " " + " ".join(f"{'R ' + n:>9}" for n in names))
-    groups = [(o, [r for r in rows if r[0] == o]) for o in sorted({o for o, _, _ in rows}, key=int)]
+    groups = [(o, [r for r in rows if r[0] == o]) for o in sorted({o for o, _, _ in rows}, key=group_order)]
     groups += [("kept", [r for r in rows if not r[1]]), ("dropped", [r for r in rows if r[1]])]
     for label, part in groups:
         t = [pooled(part, lambda s, n=n: (s.get(n) or {}).get("translation_rmse_mm")) for n in names]

@@ -11,7 +11,7 @@ use slidetrack_estimators::dekf::{DekfModel, DekfOutput};
 use slidetrack_session::{ChannelMessage, ProtocolEvent, ReadOptions, SessionInfo};
 
 use crate::dataset::{SessionData, TruthSource, load};
-use crate::dekf_run::{CM, Scores, mean_scores, run, score_with_linear};
+use crate::dekf_run::{CM, Scores, combine_scores, mean_scores, run, score_with_linear};
 use crate::linear_baseline::LinearBaseline;
 use crate::replay::replay_dekf;
 
@@ -164,28 +164,14 @@ fn row(name: &str, s: &Scores) -> String {
 /// The scores of all steps of `sessions` pooled: the root of the mean of
 /// every squared error (maxima: the largest).
 pub fn pooled_scores(sessions: &[Scores]) -> Scores {
-    let steps: usize = sessions.iter().map(|s| s.steps).sum();
-    let n = steps.max(1) as f64;
-    let pool = |f: fn(&Scores) -> f64| {
-        (sessions.iter().map(|s| f(s).powi(2) * s.steps as f64).sum::<f64>() / n).sqrt()
-    };
-    let pool_opt = |f: fn(&Scores) -> Option<f64>| {
-        let v: Option<Vec<(f64, usize)>> = sessions.iter().map(|s| f(s).map(|x| (x, s.steps))).collect();
-        v.filter(|v| !v.is_empty())
-            .map(|v| (v.iter().map(|(x, k)| x * x * *k as f64).sum::<f64>() / n).sqrt())
-    };
-    let max = |f: fn(&Scores) -> f64| sessions.iter().map(f).fold(0.0, f64::max);
-    Scores {
-        position_rmse_cm: pool(|s| s.position_rmse_cm),
-        position_max_cm: max(|s| s.position_max_cm),
-        velocity_rmse_cmps: pool(|s| s.velocity_rmse_cmps),
-        velocity_max_cmps: max(|s| s.velocity_max_cmps),
-        baseline_position_rmse_cm: pool(|s| s.baseline_position_rmse_cm),
-        baseline_velocity_rmse_cmps: pool(|s| s.baseline_velocity_rmse_cmps),
-        linear_position_rmse_cm: pool_opt(|s| s.linear_position_rmse_cm),
-        linear_velocity_rmse_cmps: pool_opt(|s| s.linear_velocity_rmse_cmps),
-        steps,
-    }
+    combine_scores(
+        sessions,
+        |v| {
+            let steps: usize = v.iter().map(|(_, k)| k).sum();
+            (v.iter().map(|(x, k)| x * x * *k as f64).sum::<f64>() / steps.max(1) as f64).sqrt()
+        },
+        |v| v.iter().copied().fold(0.0, f64::max),
+    )
 }
 
 /// The report as a table: the dEKF beside predicting no motion (`zero`:

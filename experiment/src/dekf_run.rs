@@ -367,21 +367,35 @@ pub fn score(estimates: &[[f64; 2]], truth: &[[f64; 2]]) -> Scores {
 
 /// The mean of several sessions' scores (Table 6.1's MEAN row averages sessions).
 pub fn mean_scores(all: &[Scores]) -> Scores {
-    let n = all.len().max(1) as f64;
-    let avg = |f: fn(&Scores) -> f64| all.iter().map(f).sum::<f64>() / n;
-    let avg_opt = |f: fn(&Scores) -> Option<f64>| {
-        let v: Option<Vec<f64>> = all.iter().map(f).collect();
-        v.filter(|v| !v.is_empty()).map(|v| v.iter().sum::<f64>() / v.len() as f64)
+    combine_scores(
+        all,
+        |v| v.iter().map(|(x, _)| x).sum::<f64>() / v.len() as f64,
+        |v| v.iter().sum::<f64>() / v.len().max(1) as f64,
+    )
+}
+
+/// Several sessions' scores combined: each RMSE by `rmse` over the
+/// sessions' `(value, steps)` (the optional ones only when every session
+/// has them), each maximum by `max`.
+pub fn combine_scores(all: &[Scores], rmse: fn(&[(f64, usize)]) -> f64, max: fn(&[f64]) -> f64) -> Scores {
+    let of = |f: fn(&Scores) -> f64| {
+        let v: Vec<(f64, usize)> = all.iter().map(|s| (f(s), s.steps)).collect();
+        if v.is_empty() { 0.0 } else { rmse(&v) }
     };
+    let of_opt = |f: fn(&Scores) -> Option<f64>| {
+        let v: Option<Vec<(f64, usize)>> = all.iter().map(|s| f(s).map(|x| (x, s.steps))).collect();
+        v.filter(|v| !v.is_empty()).map(|v| rmse(&v))
+    };
+    let max_of = |f: fn(&Scores) -> f64| max(&all.iter().map(f).collect::<Vec<_>>());
     Scores {
-        position_rmse_cm: avg(|s| s.position_rmse_cm),
-        position_max_cm: avg(|s| s.position_max_cm),
-        velocity_rmse_cmps: avg(|s| s.velocity_rmse_cmps),
-        velocity_max_cmps: avg(|s| s.velocity_max_cmps),
-        baseline_position_rmse_cm: avg(|s| s.baseline_position_rmse_cm),
-        baseline_velocity_rmse_cmps: avg(|s| s.baseline_velocity_rmse_cmps),
-        linear_position_rmse_cm: avg_opt(|s| s.linear_position_rmse_cm),
-        linear_velocity_rmse_cmps: avg_opt(|s| s.linear_velocity_rmse_cmps),
+        position_rmse_cm: of(|s| s.position_rmse_cm),
+        position_max_cm: max_of(|s| s.position_max_cm),
+        velocity_rmse_cmps: of(|s| s.velocity_rmse_cmps),
+        velocity_max_cmps: max_of(|s| s.velocity_max_cmps),
+        baseline_position_rmse_cm: of(|s| s.baseline_position_rmse_cm),
+        baseline_velocity_rmse_cmps: of(|s| s.baseline_velocity_rmse_cmps),
+        linear_position_rmse_cm: of_opt(|s| s.linear_position_rmse_cm),
+        linear_velocity_rmse_cmps: of_opt(|s| s.linear_velocity_rmse_cmps),
         steps: all.iter().map(|s| s.steps).sum(),
     }
 }

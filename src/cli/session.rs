@@ -173,6 +173,11 @@ pub struct LabelArgs {
     /// reached before the hold counts (s), while the gripper still closes.
     #[arg(long, value_name = "S", default_value_t = slidetrack_calibration::in_hand::hold::DEFAULT_SETTLE_S)]
     pub hold_settle: f64,
+    /// The recordings start with the object already held (their tare is the
+    /// grasped state, as xela-psc's): the hold runs from the first scan with
+    /// a marker pose to the last.
+    #[arg(long)]
+    pub hold_from_start: bool,
 }
 
 /// Arguments of `devices`.

@@ -7,7 +7,7 @@ use slidetrack_experiment::import::xela_csv::{find_sequences, read_sequence};
 use slidetrack_experiment::import::xela_session::{ImportOptions, import_sequence};
 use slidetrack_experiment::import::{xela_psc, xela_psc_session};
 
-use crate::cli::{ImportArgs, ImportCommand, XelaCsvArgs, XelaPscArgs};
+use crate::cli::{ImportArgs, ImportCommand, RecordingDirsArgs};
 
 pub fn run(args: &ImportArgs, quiet: bool) -> Result<()> {
     match &args.what {
@@ -18,7 +18,7 @@ pub fn run(args: &ImportArgs, quiet: bool) -> Result<()> {
 
 /// Each sequence is read whole (every file checked) before its session is
 /// written, so a malformed file stops the import with nothing written for it.
-fn xela_csv(args: &XelaCsvArgs, quiet: bool) -> Result<()> {
+fn xela_csv(args: &RecordingDirsArgs, quiet: bool) -> Result<()> {
     let dirs = find_sequences(&args.dirs)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let options = ImportOptions { overwrite: args.overwrite };
@@ -56,7 +56,7 @@ fn xela_csv(args: &XelaCsvArgs, quiet: bool) -> Result<()> {
 }
 
 /// As [`xela_csv`]: each trial is read whole before its session is written.
-fn xela_psc(args: &XelaPscArgs, quiet: bool) -> Result<()> {
+fn xela_psc(args: &RecordingDirsArgs, quiet: bool) -> Result<()> {
     let dirs = xela_psc::find_sequences(&args.dirs)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let options = ImportOptions { overwrite: args.overwrite };

@@ -160,6 +160,7 @@ fn in_hand_options(args: &LabelArgs) -> Result<Option<InHandOptions>> {
     }
     o.hold.detector.contact_load_counts = args.contact_load;
     o.hold.settle_s = args.hold_settle;
+    o.hold.from_start = args.hold_from_start;
     Ok(Some(o))
 }
 

@@ -15,11 +15,20 @@ pub struct HoldOptions {
     /// Time after the contact level is reached before the hold counts (s):
     /// the gripper is still closing and centring the object then.
     pub settle_s: f64,
+    /// The recording starts with the object already held (its tare is the
+    /// grasped state, as in xela-psc): the hold runs from the first scan to
+    /// the marker's last sighting.
+    #[serde(default)]
+    pub from_start: bool,
 }
 
 impl Default for HoldOptions {
     fn default() -> Self {
-        HoldOptions { detector: GraspDetectorConfig::default(), settle_s: DEFAULT_SETTLE_S }
+        HoldOptions {
+            detector: GraspDetectorConfig::default(),
+            settle_s: DEFAULT_SETTLE_S,
+            from_start: false,
+        }
     }
 }
 
@@ -62,6 +71,12 @@ pub fn find_hold(inputs: &HoldInputs, options: &HoldOptions) -> Option<Hold> {
             index_at(cycles),
             end,
             "from the start of the sliding cycles to the release (protocol events)".to_string(),
+        )
+    } else if options.from_start {
+        (
+            0,
+            scans.len(),
+            "the whole recording with marker poses (it starts in grasp: --hold-from-start)".to_string(),
         )
     } else {
         let (contact, lost) = contact_and_loss(inputs, &options.detector)?;

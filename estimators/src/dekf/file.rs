@@ -94,11 +94,12 @@ pub fn to_bytes(model: &DekfModel) -> Result<Vec<u8>, ModelFileError> {
     Ok(with_sorted_header(safetensors::serialize(views, Some(info))?))
 }
 
-/// `bytes` with the keys of its safetensors header in sorted order.
+/// `bytes` with the keys of its safetensors header in sorted order (the
+/// dEKF's model files and the linear map's alike).
 /// safetensors writes the metadata from a `HashMap`, whose order changes
 /// from process to process; sorted, the same model gives the same bytes.
 /// The header keeps its length (padded with spaces, as the format allows).
-fn with_sorted_header(bytes: Vec<u8>) -> Vec<u8> {
+pub(crate) fn with_sorted_header(bytes: Vec<u8>) -> Vec<u8> {
     fn sorted(v: serde_json::Value) -> serde_json::Value {
         match v {
             serde_json::Value::Object(m) => {

@@ -66,7 +66,7 @@ impl LinearMap {
             json(LAMBDA, serde_json::to_string(&self.lambda))?,
             json(META, serde_json::to_string(&self.meta))?,
         ]);
-        Ok(with_sorted_header(safetensors::serialize(views, Some(info))?))
+        Ok(crate::dekf::file::with_sorted_header(safetensors::serialize(views, Some(info))?))
     }
 
     /// A map from bytes written by [`LinearMap::to_bytes`] (or by any tool
@@ -184,41 +184,4 @@ fn tensor(st: &SafeTensors<'_>, name: &'static str, shape: &[usize]) -> Result<V
         return Err(bad(format!("element {at} is {}", values[at])));
     }
     Ok(values)
-}
-
-/// `bytes` with the keys of its safetensors header in sorted order (as in
-/// `dekf::file`): safetensors writes the metadata from a `HashMap`, whose
-/// order changes from process to process; sorted, the same map gives the
-/// same bytes. The header keeps its length (padded with spaces, as the
-/// format allows).
-fn with_sorted_header(bytes: Vec<u8>) -> Vec<u8> {
-    fn sorted(v: serde_json::Value) -> serde_json::Value {
-        match v {
-            serde_json::Value::Object(m) => {
-                let mut entries: Vec<_> = m.into_iter().collect();
-                entries.sort_by(|a, b| a.0.cmp(&b.0));
-                serde_json::Value::Object(entries.into_iter().map(|(k, v)| (k, sorted(v))).collect())
-            }
-            other => other,
-        }
-    }
-    let Some(n) = bytes.get(..8).and_then(|b| b.try_into().ok()).map(u64::from_le_bytes) else {
-        return bytes;
-    };
-    let Some(header) = usize::try_from(n).ok().and_then(|n| bytes.get(8..8 + n)) else {
-        return bytes;
-    };
-    let Ok(value) = serde_json::from_slice::<serde_json::Value>(header) else {
-        return bytes;
-    };
-    let Ok(mut json) = serde_json::to_vec(&sorted(value)) else {
-        return bytes;
-    };
-    if json.len() > header.len() {
-        return bytes;
-    }
-    json.resize(header.len(), b' ');
-    let mut out = bytes;
-    out[8..8 + json.len()].copy_from_slice(&json);
-    out
 }
