@@ -7,14 +7,11 @@
 
 use std::path::{Path, PathBuf};
 
-use slidetrack_core::Phase;
-use slidetrack_core::TimeNs;
 use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams};
 use slidetrack_estimators::cv_tune::{TunedNoise, log_likelihood, tune_noise, tune_noise_jointly};
 use slidetrack_session::{
-    ArucoDetection, ChannelMessage, GroundTruthMeasurement, GroundTruthPlanar, GroundTruthPose,
-    GroundTruthSliding, MessageReader, NewChannel, ProtocolEvent, ReadOptions, SESSION_METADATA,
-    SessionError, SessionInfo, SimTruth, TactileRaw, TactileZeroed, rewrite_session,
+    ChannelMessage, GroundTruthMeasurement, GroundTruthPlanar, GroundTruthPose, GroundTruthSliding,
+    NewChannel, ReadOptions, SessionError, rewrite_session,
 };
 use thiserror::Error;
 
@@ -24,6 +21,7 @@ use crate::ground_truth::{
 };
 use crate::in_hand::session::{in_hand_channels, label_in_hand};
 use crate::in_hand::{ContactFrame, InHandOptions, PoseParamsRecord};
+pub use crate::session_inputs::{SessionInputs, read_inputs};
 
 /// How to label.
 #[derive(Clone, Debug, PartialEq)]
@@ -197,78 +195,6 @@ pub enum LabelError {
         #[source]
         source: serde_json::Error,
     },
-}
-
-/// What labelling needs from a session.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct SessionInputs {
-    /// `/tactile/raw` log times.
-    pub scans: Vec<TimeNs>,
-    /// `/aruco/detections`, `None` when the session has no such channel.
-    pub detections: Option<Vec<(TimeNs, ArucoDetection)>>,
-    /// `/sim/truth`, empty on real sessions.
-    pub truth: Vec<(TimeNs, SimTruth)>,
-    /// When the hand released the object (or the trial aborted), from `/protocol/events`.
-    pub release: Option<TimeNs>,
-    /// The `rig_config` metadata (TOML), if any.
-    pub rig_config: Option<String>,
-    /// The normal load at every `/tactile/zeroed` scan: the sum of every
-    /// taxel's baseline-subtracted z (counts).
-    pub loads: Vec<(TimeNs, f64)>,
-    /// When the sliding cycles began, from `/protocol/events`.
-    pub cycles: Option<TimeNs>,
-}
-
-/// Reads what labelling needs in one pass over the file.
-pub fn read_inputs(path: &Path, options: ReadOptions) -> Result<SessionInputs, SessionError> {
-    let info = SessionInfo::read(path, options)?;
-    let rig_config = info.metadata.get(SESSION_METADATA).and_then(|m| m.get("rig_config")).cloned();
-    let topics = [
-        TactileRaw::TOPIC,
-        ArucoDetection::TOPIC,
-        SimTruth::TOPIC,
-        ProtocolEvent::TOPIC,
-        TactileZeroed::TOPIC,
-    ];
-    let mut inputs = SessionInputs { rig_config, ..SessionInputs::default() };
-    let mut detections = Vec::new();
-    let mut reader = MessageReader::open(path, &topics, options)?;
-    for message in reader.by_ref() {
-        let m = message?;
-        let decode = |e| SessionError::Decode {
-            path: path.to_path_buf(),
-            topic: m.topic().to_string(),
-            log_time: m.log_time,
-            source: e,
-        };
-        match m.topic() {
-            TactileRaw::TOPIC => inputs.scans.push(m.log_time),
-            ArucoDetection::TOPIC => {
-                detections.push((m.log_time, serde_json::from_slice(&m.data).map_err(decode)?))
-            }
-            SimTruth::TOPIC => {
-                inputs.truth.push((m.log_time, serde_json::from_slice(&m.data).map_err(decode)?))
-            }
-            TactileZeroed::TOPIC => {
-                let z: TactileZeroed = serde_json::from_slice(&m.data).map_err(decode)?;
-                let load = z.sensors.iter().flat_map(|s| &s.taxels).map(|t| t.z).sum();
-                inputs.loads.push((m.log_time, load));
-            }
-            _ => {
-                let event: ProtocolEvent = serde_json::from_slice(&m.data).map_err(decode)?;
-                if inputs.release.is_none() && event.ends_cycles() {
-                    inputs.release = Some(m.log_time);
-                }
-                if inputs.cycles.is_none() && event.phase == Phase::Cycles && !event.abort {
-                    inputs.cycles = Some(m.log_time);
-                }
-            }
-        }
-    }
-    if reader.channels().any(|c| c.topic == ArucoDetection::TOPIC) {
-        inputs.detections = Some(detections);
-    }
-    Ok(inputs)
 }
 
 /// The marker positions of `measurements` as the smoother's samples, time

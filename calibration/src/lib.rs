@@ -13,6 +13,7 @@ pub mod in_hand;
 pub mod label;
 pub mod marker_tool;
 pub mod pose;
+pub mod session_inputs;
 
 #[cfg(test)]
 mod sim_tests;

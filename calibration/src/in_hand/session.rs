@@ -15,7 +15,7 @@ use super::{
     estimate_contact_frame, find_hold, planar_states, pose_track,
 };
 use crate::ground_truth::axis_from_rig_config;
-use crate::label::SessionInputs;
+use crate::session_inputs::SessionInputs;
 
 /// Channel metadata key of `/ground_truth/pose` and `/ground_truth/planar`
 /// holding how they were made (JSON).
