@@ -13,8 +13,8 @@ use std::path::Path;
 use common::{collect, fails, ok, tempdir, trained};
 use slidetrack_estimators::slip::GraspDetectorConfig;
 use slidetrack_session::{
-    ChannelMessage, MessageReader, ReadOptions, SESSION_METADATA, SessionInfo, SlipEstimate, TactileZeroed,
-    read_channel,
+    ChannelMessage, GraspStateName, MessageReader, ReadOptions, SESSION_METADATA, SessionInfo, SlipEstimate,
+    TactileZeroed, read_channel,
 };
 
 /// Every message of `topic` in `path`: `(log time, publish time, sequence, payload)`.
@@ -115,6 +115,12 @@ fn replay_writes_the_grasp_detector_on_every_zeroed_scan_of_a_simulated_session(
     let info = SessionInfo::read(&out, ReadOptions::default()).unwrap();
     let meta = &info.channel(SlipEstimate::TOPIC).unwrap().metadata;
     let cfg: GraspDetectorConfig = serde_json::from_str(&meta["detector"]).unwrap();
-    assert_eq!(cfg, GraspDetectorConfig::default());
+    // The simulated rig's contact level, the defaults otherwise.
+    assert_eq!(cfg, GraspDetectorConfig { contact_load_counts: 1000.0, ..GraspDetectorConfig::default() });
     assert_eq!(meta["slip_score_unit"], "counts/s");
+    // The simulated grasp is held, and the protocol's release reads as a
+    // release, not a drop.
+    let states: Vec<GraspStateName> = slip.iter().map(|(_, e)| e.state).collect();
+    assert!(states.iter().filter(|s| **s == GraspStateName::Holding).count() > 400, "{states:?}");
+    assert!(!states.contains(&GraspStateName::Dropped), "the hand let go on purpose");
 }
