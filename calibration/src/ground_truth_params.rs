@@ -20,7 +20,7 @@ pub const DEFAULT_Q_POSITION_M2_PER_S: f64 = 1e-8;
 /// the scale of the velocity changes of a stick-slip episode.
 pub const DEFAULT_Q_VELOCITY_M2_PER_S3: f64 = 1e-4;
 
-/// The default parameters of the labelling (see the README's *Ground truth*
+/// The default parameters of the labelling (see `docs/ground-truth.md`
 /// for how they relate to the thesis's `Q = diag(0.01, 0.01)`, `R = 10`,
 /// which [`CvSmootherParams::default`] holds): `R` is a marker noise of
 /// 0.5 mm, `Q(dt) = diag(1e-8 m^2/s, 1e-4 m^2/s^3) dt`, the object starts at

@@ -139,11 +139,12 @@ mod tests {
     }
 
     #[test]
-    fn the_readme_example_is_a_valid_rig_config() {
-        let readme = include_str!("../../README.md");
-        let start = readme.find("```toml\n").expect("a toml block in the README") + 8;
+    fn the_docs_configuration_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../docs/configuration.md");
+        let start = readme.find("```toml\n").expect("a toml block in docs/configuration.md") + 8;
         let end = start + readme[start..].find("```").expect("closed block");
-        let cfg: RigConfig = slidetrack_core::parse_toml(&readme[start..end], "README.md").unwrap();
+        let cfg: RigConfig =
+            slidetrack_core::parse_toml(&readme[start..end], "docs/configuration.md").unwrap();
         cfg.validate().unwrap();
         assert_eq!(cfg.marker.dictionary, "DICT_6X6_250");
     }
@@ -172,8 +173,8 @@ mod tests {
         assert!(camera.depth_to_color.is_some());
         let back: RigConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
         assert_eq!(back, cfg);
-        let readme = include_str!("../../README.md");
-        let section = readme.find("### Vision on a real RGB-D camera").expect("the RGB-D section");
+        let readme = include_str!("../../docs/vision.md");
+        let section = readme.find("## Vision on a real RGB-D camera").expect("the RGB-D section");
         let start = section + readme[section..].find("```toml\n").expect("a toml block") + 8;
         let end = start + readme[start..].find("```").expect("closed block");
         let cfg: RigConfig = toml::from_str(&readme[start..end]).unwrap();

@@ -189,7 +189,7 @@ pub struct TrainArgs {
     pub protocol: Option<ProtocolArg>,
     /// Shift each training window by a random offset along the sliding axis,
     /// uniform in +-this (cm), so that the networks cannot tie their output to
-    /// where the object happens to be (see the README); 0 keeps the recorded
+    /// where the object happens to be (see docs/dekf.md); 0 keeps the recorded
     /// positions, as the thesis did.
     #[arg(long, default_value_t = DEFAULT_POSITION_SHIFT_CM)]
     pub position_shift: f64,

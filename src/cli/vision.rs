@@ -129,7 +129,7 @@ pub struct VisionTrackArgs {
     pub init: InitArg,
     /// The marker on the object, for --measurements aruco: a TOML file
     /// (dictionary, marker_id, marker_size_m, marker_from_object, ...; see
-    /// the README).
+    /// docs/vision.md).
     #[arg(long, required_if_eq("measurements", "aruco"))]
     pub aruco_config: Option<PathBuf>,
     #[command(flatten)]

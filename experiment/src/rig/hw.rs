@@ -79,7 +79,7 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     let Some(hw) = spec.rig.hw.as_ref() else {
         bail!(
             "--rig hw needs a [hw] table in the rig configuration (--config rig.toml) that names the devices; \
-             see the README's \"Hardware\" section"
+             see docs/hardware.md"
         );
     };
     tracing::info!("{}", describe(hw));
@@ -340,12 +340,12 @@ mod tests {
     use crate::rig_config::RigConfig;
 
     #[test]
-    fn the_readme_hardware_example_is_a_valid_rig_config() {
-        let readme = include_str!("../../../README.md");
-        let section = readme.find("## Hardware").expect("a Hardware section");
+    fn the_docs_hardware_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../../docs/hardware.md");
+        let section = readme.find("# Hardware").expect("a Hardware section");
         let start = section + readme[section..].find("```toml\n").expect("a toml block") + 8;
         let end = start + readme[start..].find("```").expect("closed block");
-        let cfg: RigConfig = parse_toml(&readme[start..end], "README.md").unwrap();
+        let cfg: RigConfig = parse_toml(&readme[start..end], "docs/hardware.md").unwrap();
         cfg.validate().unwrap();
         let hw = cfg.hw.expect("a [hw] table");
         assert_eq!(
@@ -355,13 +355,13 @@ mod tests {
     }
 
     #[test]
-    fn the_readme_xela_server_example_is_a_valid_rig_config() {
-        let readme = include_str!("../../../README.md");
+    fn the_docs_xela_server_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../../docs/hardware.md");
         let kind = readme.find("url = \"ws://192.168.0.21:5000\"").expect("a xela_ws example");
         let start = readme[..kind].rfind("```toml\n").expect("a toml block") + 8;
         let end = start + readme[start..].find("```").expect("closed block");
         let block: String = readme[start..end].lines().map(|l| format!("{}\n", l.trim_start())).collect();
-        let cfg: RigConfig = parse_toml(&block, "README.md").unwrap();
+        let cfg: RigConfig = parse_toml(&block, "docs/hardware.md").unwrap();
         cfg.validate().unwrap();
         let hw = cfg.hw.expect("a [hw] table");
         assert_eq!(
@@ -371,12 +371,12 @@ mod tests {
     }
 
     #[test]
-    fn the_readme_robotiq_example_is_a_valid_rig_config() {
-        let readme = include_str!("../../../README.md");
+    fn the_docs_robotiq_example_is_a_valid_rig_config() {
+        let readme = include_str!("../../../docs/hardware.md");
         let kind = readme.find("kind = \"robotiq\"\nport").expect("a robotiq example");
         let start = readme[..kind].rfind("```toml\n").expect("a toml block") + 8;
         let end = start + readme[start..].find("```").expect("closed block");
-        let cfg: RigConfig = parse_toml(&readme[start..end], "README.md").unwrap();
+        let cfg: RigConfig = parse_toml(&readme[start..end], "docs/hardware.md").unwrap();
         cfg.validate().unwrap();
         let hw = cfg.hw.expect("a [hw] table");
         assert_eq!(describe(&hw), "rig robotiq-rig: tactile sim, camera sim, hand Robotiq 2f85 /dev/ttyUSB0");
