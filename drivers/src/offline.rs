@@ -6,13 +6,14 @@ use std::io::{BufRead, BufReader, Read};
 
 use slidetrack_core::{DecoderCounters, TactileSample, TimeNs};
 
-use crate::can_layout::{CanLayoutDecoder, CanMapError};
-use crate::can_protocol::CanFrame;
-use crate::candump::{self, CandumpFrame, CandumpRecord};
-use crate::config::{CanTactileConfig, SerialTactileConfig};
-use crate::scan::{ModuleScanAssembler, SequenceUnwrapper};
+use crate::can::candump::{self, CandumpFrame, CandumpRecord};
+use crate::can::config::CanTactileConfig;
+use crate::can::layout::{CanLayoutDecoder, CanMapError};
+use crate::can::protocol::CanFrame;
 use crate::sensors::module_taxels;
-use crate::serial_protocol::{SerialDecoder, SerialEvent};
+use crate::serial::config::SerialTactileConfig;
+use crate::serial::protocol::{SerialDecoder, SerialEvent};
+use crate::serial::scan::{ModuleScanAssembler, SequenceUnwrapper};
 
 /// Decodes a `candump -l` log (`(1700000000.123456) can0 710#00123456789ABC`)
 /// or candump's console output (`  can0  710   [7]  00 12 ...`, with or

@@ -3,9 +3,9 @@
 use slidetrack_core::{FingerReading, PerFinger, RawTaxel};
 
 use super::*;
-use crate::can_protocol::XelaCanLayout;
+use crate::can::protocol::XelaCanLayout;
 use crate::sensors::HwSensor;
-use crate::serial_protocol::ModuleFrame;
+use crate::serial::protocol::ModuleFrame;
 
 fn can_cfg() -> CanTactileConfig {
     CanTactileConfig {
@@ -154,7 +154,7 @@ mod arbitrary {
                 }),
             2 => (0x700u32..0x720, proptest::collection::vec(any::<u8>(), 0..=8), proptest::option::of(0u64..20_000_000))
                 .prop_map(|(id, data, t_us)| {
-                    crate::candump::plain::format_plain_line(t_us, "can0", id, false, &data).into_bytes()
+                    crate::can::candump::plain::format_plain_line(t_us, "can0", id, false, &data).into_bytes()
                 }),
             1 => proptest::collection::vec(any::<u8>(), 0..120),
         ]
@@ -211,7 +211,7 @@ mod arbitrary {
                 last = sample.t;
             }
             prop_assert_eq!(d.bytes(), bytes.len() as u64);
-            prop_assert!(d.trailing_bytes() <= crate::serial_protocol::DECODER_CAPACITY);
+            prop_assert!(d.trailing_bytes() <= crate::serial::protocol::DECODER_CAPACITY);
             prop_assert!(d.error().is_none());
         }
     }
@@ -221,7 +221,7 @@ mod arbitrary {
 fn console_output_decodes_with_and_without_times() {
     let l = XelaCanLayout { taxels: 16, ..XelaCanLayout::default() };
     let plain = |t_us: Option<u64>, f: &CanFrame| {
-        crate::candump::plain::format_plain_line(t_us, "can0", f.id, f.extended, f.data())
+        crate::can::candump::plain::format_plain_line(t_us, "can0", f.id, f.extended, f.data())
     };
     for times in [None, Some(false), Some(true)] {
         let mut lines = Vec::new();
