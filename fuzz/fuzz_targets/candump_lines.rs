@@ -11,7 +11,7 @@ use slidetrack_drivers::offline::CanLogDecoder;
 fuzz_target!(|data: &[u8]| {
     let Some((&deltas, text)) = data.split_first() else { return };
     for line in String::from_utf8_lossy(text).lines() {
-        let _ = slidetrack_drivers::candump::parse_any_line(line);
+        let _ = slidetrack_drivers::can::candump::parse_any_line(line);
     }
     let Ok(decoder) = CanLogDecoder::new(text, &CanTactileConfig::default(), None) else { return };
     let mut last = slidetrack_core::TimeNs::ZERO;

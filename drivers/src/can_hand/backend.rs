@@ -1,5 +1,5 @@
 //! The hand actuator on CAN: set-points, a heartbeat thread, and a release
-//! sent on stop, on error and on drop (frame layout in [`super::hand_can`]).
+//! sent on stop, on error and on drop (frame layout in [`crate::can_hand::protocol`]).
 
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};

@@ -13,6 +13,15 @@ use crate::xela_ws::config::XelaConfigError;
 /// A `[hw]` table with values that cannot work.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum HwConfigError {
+    /// A setting that cannot work for a reason other than its range (a
+    /// transport's own checks).
+    #[error("hw.{field}: {reason}")]
+    Invalid {
+        /// The setting, as in the file (`tactile.url`).
+        field: String,
+        /// Why it cannot work.
+        reason: String,
+    },
     /// A number outside its range.
     #[error("hw.{field} = {value} is out of range ({expected})")]
     OutOfRange {

@@ -1,6 +1,6 @@
 //! CAN buses: a small [`CanBus`] seam (SocketCAN here, an SLCAN adapter in
 //! [`crate::slcan::backend`], memory in tests). The tactile boards on it are
-//! [`crate::can::backend`], the hand [`super::can_hand`].
+//! [`crate::can::backend`], the hand [`crate::can_hand::backend`].
 //!
 //! SocketCAN sockets ask the kernel for error frames (bus-off,
 //! error-passive, missing ACK, protocol errors: [`bus_errors::ERROR_MASK`])

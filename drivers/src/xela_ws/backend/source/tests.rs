@@ -35,10 +35,8 @@ cols = 4
 fn config(text: &str) -> Result<XelaWsTactileConfig, String> {
     let hw: HwRigConfig = parse_toml(text, "rig.toml").map_err(|e: ConfigError| e.to_string())?;
     hw.validate().map_err(|e| e.to_string())?;
-    match hw.tactile {
-        TactileDevice::XelaWs(x) => Ok(x),
-        other => panic!("not xela_ws: {other:?}"),
-    }
+    let TactileDevice::XelaWs(x) = hw.tactile else { panic!("not xela_ws: {:?}", hw.tactile) };
+    Ok(x)
 }
 
 fn expected(n: u32) -> Vec<ExpectedSensor> {
