@@ -40,7 +40,7 @@ pub struct CanTactile {
 impl CanTactile {
     /// Opens the configured transport (SocketCAN interface or SLCAN
     /// adapter) and sends the start frames. (`slcan.port = "emulated"` is
-    /// [`crate::EmulatedSlcanTactile`]'s.)
+    /// [`crate::slcan::backend::emulated::EmulatedSlcanTactile`]'s.)
     pub fn open(cfg: &CanTactileConfig, clock: Arc<dyn Clock>) -> Result<CanTactile, DeviceError> {
         let bus: Arc<dyn CanBus> = match &cfg.slcan {
             Some(s) => Arc::new(crate::slcan::backend::SlcanBus::open(&s.port, &s.adapter())?),
