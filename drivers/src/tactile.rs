@@ -233,3 +233,53 @@ impl TactileDevice {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One device of every kind, each at its defaults.
+    fn every_kind() -> Vec<TactileDevice> {
+        vec![
+            TactileDevice::Sim,
+            TactileDevice::Serial(SerialTactileConfig::default()),
+            TactileDevice::Can(CanTactileConfig::default()),
+            TactileDevice::XelaWs(XelaWsTactileConfig::default()),
+        ]
+    }
+
+    #[test]
+    fn the_kind_is_the_tag_of_the_table() {
+        for device in every_kind() {
+            let table = toml::Value::try_from(&device).unwrap();
+            assert_eq!(table["kind"].as_str(), Some(device.kind()), "{device:?}");
+            device.validate().unwrap();
+        }
+    }
+
+    #[test]
+    fn an_emulated_device_runs_at_the_simulated_rate_until_it_is_found_at_an_endpoint() {
+        let emulated = [
+            "kind = \"serial\"\nport = \"emulated\"",
+            "kind = \"can\"\nslcan = { port = \"emulated\" }",
+            "kind = \"xela_ws\"\nurl = \"emulated\"",
+        ];
+        for text in emulated {
+            let device: TactileDevice = slidetrack_core::parse_toml(text, "rig.toml").unwrap();
+            assert!(device.is_emulated() && device.feels_simulated_world(), "{text}");
+            assert_eq!(device.rate_hz(250.0), 250.0, "{text}");
+            let found = device.at("/dev/pts/7");
+            assert!(!found.is_emulated() && !found.feels_simulated_world(), "{found:?}");
+            assert_eq!(found.rate_hz(250.0), 100.0, "{found:?}");
+            assert_eq!(found.kind(), device.kind());
+        }
+        assert!(TactileDevice::Sim.feels_simulated_world() && !TactileDevice::Sim.is_emulated());
+        assert_eq!(TactileDevice::Sim.at("/dev/null"), TactileDevice::Sim);
+    }
+
+    #[test]
+    fn a_device_describes_where_it_is() {
+        let described: Vec<String> = every_kind().iter().map(TactileDevice::describe).collect();
+        assert_eq!(described, ["sim", "serial /dev/ttyACM0", "CAN can0", "xela_server ws://127.0.0.1:5000"]);
+    }
+}
