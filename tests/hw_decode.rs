@@ -10,8 +10,8 @@ use std::time::UNIX_EPOCH;
 
 use common::{fails, ok, tempdir};
 use slidetrack_core::{RawTaxel, TimeNs};
+use slidetrack_drivers::can::log::candump_line;
 use slidetrack_drivers::can::protocol::XelaCanLayout;
-use slidetrack_drivers::offline::candump_line;
 use slidetrack_drivers::serial::protocol::ModuleFrame;
 use slidetrack_session::{ReadOptions, TactileDecoder, TactileRaw, read_channel};
 

@@ -26,8 +26,8 @@
 //! Shared: the `[hw]` table ([`config`]) and its tactile device
 //! ([`tactile::TactileDevice`], whose methods open, emulate and describe any
 //! kind), the configured sensors ([`sensors`]), what emulators share
-//! ([`emulated`]), captured traffic ([`offline`]) and, with `devices`, what
-//! is plugged in (`devices`). The wire formats are in `docs/protocols.md`.
+//! ([`emulated`]) and, with `devices`, what is plugged in (`devices`). The
+//! wire formats are in `docs/protocols.md`.
 
 pub mod can;
 pub mod can_hand;
@@ -37,7 +37,6 @@ pub mod devices;
 pub mod emulated;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod io_error_kind;
-pub mod offline;
 pub mod robotiq;
 pub mod sensors;
 pub mod serial;

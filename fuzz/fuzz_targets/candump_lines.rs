@@ -6,7 +6,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use slidetrack_drivers::config::CanTactileConfig;
-use slidetrack_drivers::offline::CanLogDecoder;
+use slidetrack_drivers::can::log::CanLogDecoder;
 
 fuzz_target!(|data: &[u8]| {
     let Some((&deltas, text)) = data.split_first() else { return };

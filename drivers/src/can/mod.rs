@@ -4,7 +4,8 @@
 //! - [`config`]: the `[hw.tactile]` table.
 //! - [`protocol`] (no I/O): CAN frames and the legacy board layout;
 //!   [`layout`] any configured layout (id maps, payloads, command frames,
-//!   scan modes) and its decoder; [`candump`] can-utils' log format.
+//!   scan modes) and its decoder; [`candump`] can-utils' log format and
+//!   [`log`] a captured log decoded into scans (`slidetrack decode`).
 //! - `backend` (feature `devices`, Linux): `CanTactile` reads a bus;
 //!   `backend::socketcan` is the [`CanBus`](backend::socketcan::CanBus)
 //!   seam and SocketCAN behind it.
@@ -12,6 +13,7 @@
 pub mod candump;
 pub mod config;
 pub mod layout;
+pub mod log;
 pub mod protocol;
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
