@@ -15,8 +15,6 @@ use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use slidetrack_core::{TactileSource, WallClock, parse_toml};
 use slidetrack_drivers::config::TactileDevice;
-use slidetrack_drivers::xela_ws::XelaWsTactile;
-use slidetrack_drivers::{CanTactile, SerialTactile};
 use slidetrack_experiment::rig_config::RigConfig;
 
 const FINGERS: &str = "fingers = { thumb = { sensor = \"thumb\" }, index = { sensor = \"index\" }, middle = { sensor = \"middle\" } }";
@@ -72,36 +70,34 @@ fn config(rig_toml: &str) -> TactileDevice {
     cfg.hw.expect("[hw]").tactile
 }
 
+/// Reads the device of `rig_toml` where `slidetrack emulate KIND` serves
+/// it, with the backend of the real device; returns the endpoint.
+fn read_emulated(kind: &str, rig_toml: &str) -> String {
+    let (child, endpoint, _dir) = emulate(kind, rig_toml);
+    let device = config(rig_toml).at(&endpoint);
+    assert!(!device.is_emulated(), "{device:?} reads the served endpoint");
+    let source =
+        device.open(None, 100.0, Arc::new(WallClock::start())).expect("the emulator's endpoint opens");
+    check_grasp(source);
+    stop(child);
+    endpoint
+}
+
 #[test]
 fn the_serial_emulator_streams_simulated_grasps() {
-    let text = rig("kind = \"serial\"\nport = \"emulated\"");
-    let (child, port, _dir) = emulate("serial", &text);
-    let TactileDevice::Serial(cfg) = config(&text) else { panic!("serial") };
-    let source =
-        SerialTactile::open(&port, &cfg, 100.0, Arc::new(WallClock::start())).expect("the pty opens");
-    check_grasp(Box::new(source));
-    stop(child);
+    let _ = read_emulated("serial", &rig("kind = \"serial\"\nport = \"emulated\""));
 }
 
 #[test]
 fn the_slcan_emulator_streams_simulated_grasps() {
-    let text = rig("kind = \"can\"\nslcan = { port = \"emulated\" }");
-    let (child, port, _dir) = emulate("slcan", &text);
-    let TactileDevice::Can(mut cfg) = config(&text) else { panic!("can") };
-    cfg.slcan.as_mut().expect("slcan").port = port;
-    check_grasp(Box::new(CanTactile::open(&cfg, Arc::new(WallClock::start())).expect("the adapter opens")));
-    stop(child);
+    // `emulate tactile` serves whichever device the table names.
+    let _ = read_emulated("tactile", &rig("kind = \"can\"\nslcan = { port = \"emulated\" }"));
 }
 
 #[test]
 fn the_xela_server_emulator_streams_simulated_grasps() {
-    let text = rig("kind = \"xela_ws\"\nurl = \"emulated\"");
-    let (child, url, _dir) = emulate("xela-server", &text);
+    let url = read_emulated("xela-server", &rig("kind = \"xela_ws\"\nurl = \"emulated\""));
     assert!(url.starts_with("ws://127.0.0.1:"), "{url}");
-    let TactileDevice::XelaWs(cfg) = config(&text) else { panic!("xela_ws") };
-    let source = XelaWsTactile::connect(&url, &cfg, 100.0, Arc::new(WallClock::start())).expect("connects");
-    check_grasp(Box::new(source));
-    stop(child);
 }
 
 #[test]

@@ -10,9 +10,9 @@ use std::time::UNIX_EPOCH;
 
 use common::{fails, ok, tempdir};
 use slidetrack_core::{RawTaxel, TimeNs};
-use slidetrack_drivers::can_protocol::XelaCanLayout;
-use slidetrack_drivers::offline::candump_line;
-use slidetrack_drivers::serial_protocol::ModuleFrame;
+use slidetrack_drivers::can::log::candump_line;
+use slidetrack_drivers::can::protocol::XelaCanLayout;
+use slidetrack_drivers::serial::protocol::ModuleFrame;
 use slidetrack_session::{ReadOptions, TactileDecoder, TactileRaw, read_channel};
 
 const SEQUENCE: &str = "test/data_sample_2021-11-25-13-09-52";
@@ -227,7 +227,7 @@ fn decode_refuses_bad_input_with_one_clear_line() {
 /// value kept, in log order.
 #[test]
 fn plain_candump_output_decodes_in_a_configured_map_layout() {
-    use slidetrack_drivers::candump::plain::format_plain_line;
+    use slidetrack_drivers::can::candump::plain::format_plain_line;
     let value = |s: u16, k: u16| [100 + s, 200 + k, 300 + s * k];
     let mut lines = vec![format_plain_line(None, "can0", 0x300, false, &[9, 9])]; // an unmapped id
     for s in 0..6u16 {

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use common::{SHORT_PROTOCOL, SIM_PATCH_4X4, assert_ended_by_disconnect, ok, slidetrack, tempdir};
 use serde_json::Value;
-use slidetrack_drivers::xela_ws::{EmulatedMessage, XelaWsEmulator, XelaWsEmulatorConfig};
+use slidetrack_drivers::xela_ws::backend::{EmulatedMessage, XelaWsEmulator, XelaWsEmulatorConfig};
 use slidetrack_session::{
     ReadOptions, SessionInfo, TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TaxelLayout,
     read_channel,

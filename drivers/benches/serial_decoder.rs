@@ -10,8 +10,8 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group};
-use slidetrack_drivers::scan::ModuleScanAssembler;
-use slidetrack_drivers::serial_protocol::{ModuleFrame, SerialDecoder, SerialEvent, frame_len};
+use slidetrack_drivers::serial::protocol::{ModuleFrame, SerialDecoder, SerialEvent, frame_len};
+use slidetrack_drivers::serial::scan::ModuleScanAssembler;
 
 const MODULES: u8 = 3;
 const TAXELS: usize = 16;

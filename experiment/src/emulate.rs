@@ -16,11 +16,7 @@ use slidetrack_core::{
     ActuatorCommand, DeviceError, ErrorKind, Frame, SimTruth, TactileInfo, TactileSample, TactileSource,
     TimeNs,
 };
-use slidetrack_drivers::config::TactileDevice;
-use slidetrack_drivers::emulator::{EmulatedPort, SerialEmulator, check_emulated_sensors, sensor_grids};
-use slidetrack_drivers::slcan_emulator::{FrameSource, SlcanEmulator, SlcanEmulatorConfig};
-use slidetrack_drivers::xela_ws::emulated::XelaWsLiveEmulator;
-use slidetrack_sim::ObjectConfig;
+pub use slidetrack_sim::ObjectConfig;
 
 use crate::rig::{TrialSpec, build_sim_rig, protocol_for};
 use crate::rig_config::RigConfig;
@@ -28,12 +24,27 @@ use crate::rig_config::RigConfig;
 /// Which tactile device to emulate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum EmulatedTactile {
+    /// Whichever device the `[hw.tactile]` table names.
+    Configured,
     /// uSkin-style modules on a serial port (`kind = "serial"`).
     Serial,
     /// A CAN board behind an SLCAN adapter (`kind = "can"`).
     Slcan,
     /// XELA's `xela_server` (`kind = "xela_ws"`).
     XelaServer,
+}
+
+impl EmulatedTactile {
+    /// The `[hw.tactile]` kind this emulator serves and, when the table
+    /// must have another, what to write there; `None`: any kind.
+    fn needs(self) -> Option<(&'static str, &'static str)> {
+        match self {
+            EmulatedTactile::Configured => None,
+            EmulatedTactile::Serial => Some(("serial", "serial")),
+            EmulatedTactile::Slcan => Some(("can", "can\" with an slcan = { ... } adapter")),
+            EmulatedTactile::XelaServer => Some(("xela_ws", "xela_ws")),
+        }
+    }
 }
 
 /// A running emulator and the simulated trials feeding it; dropping it
@@ -64,37 +75,13 @@ pub fn start_tactile_emulator(
 ) -> Result<TactileEmulator> {
     let hw = rig.hw.clone().unwrap_or_default();
     let (trials, source) = SimulatedTrials::start(rig, object, seed, duration_s)?;
-    let (endpoint, device): (String, Box<dyn Send>) = match (kind, &hw.tactile) {
-        (EmulatedTactile::Serial, TactileDevice::Serial(s)) => {
-            check_emulated_sensors(&source.info(), &sensor_grids(&s.sensors), "serial emulator")?;
-            let port = EmulatedPort::open()?;
-            let modules = s.sensors.iter().map(|x| x.module).collect();
-            let emulator: SerialEmulator =
-                port.stream(Box::new(source), modules, s.taxels_per_module, s.emulator.clone())?;
-            (emulator.path().to_string(), Box::new(emulator))
-        }
-        (EmulatedTactile::Slcan, TactileDevice::Can(c)) => {
-            check_emulated_sensors(&source.info(), &sensor_grids(&c.sensors), "slcan emulator")?;
-            let layout = c.layout().context("hw.tactile")?;
-            let mut source = source;
-            let frames: FrameSource =
-                Box::new(move || source.read().ok().map(|s| layout.encode_scan(&s.raw)));
-            let emulator = SlcanEmulator::start(frames, SlcanEmulatorConfig::default())?;
-            (emulator.path().to_string(), Box::new(emulator))
-        }
-        (EmulatedTactile::XelaServer, TactileDevice::XelaWs(x)) => {
-            let emulator = XelaWsLiveEmulator::start(Box::new(source), x)?;
-            (emulator.url(), Box::new(emulator))
-        }
-        (kind, _) => bail!(
-            "emulating {kind:?} needs a rig configuration whose [hw.tactile] has kind = \"{}\"",
-            match kind {
-                EmulatedTactile::Serial => "serial",
-                EmulatedTactile::Slcan => "can\" with an slcan = { ... } adapter",
-                EmulatedTactile::XelaServer => "xela_ws",
-            }
-        ),
-    };
+    if let Some((kind_name, table)) = kind.needs()
+        && hw.tactile.kind() != kind_name
+    {
+        bail!("emulating {kind:?} needs a rig configuration whose [hw.tactile] has kind = \"{table}\"");
+    }
+    let served = hw.tactile.emulate(Box::new(source))?;
+    let (endpoint, device) = (served.endpoint, served.emulator);
     Ok(TactileEmulator { endpoint, _device: device, trials })
 }
 

@@ -6,6 +6,7 @@ pub mod dataset;
 pub mod dekf_eval;
 pub mod dekf_run;
 pub mod dekf_train;
+pub mod devices;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub mod emulate;
 pub mod grasp_eval;

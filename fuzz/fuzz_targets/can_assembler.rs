@@ -6,8 +6,8 @@
 
 use libfuzzer_sys::fuzz_target;
 use slidetrack_core::TimeNs;
-use slidetrack_drivers::can_layout::{CanLayoutDecoder, MapEntry, ScanMode};
-use slidetrack_drivers::can_protocol::CanFrame;
+use slidetrack_drivers::can::layout::{CanLayoutDecoder, MapEntry, ScanMode};
+use slidetrack_drivers::can::protocol::CanFrame;
 use slidetrack_drivers::config::CanTactileConfig;
 
 fuzz_target!(|data: &[u8]| {

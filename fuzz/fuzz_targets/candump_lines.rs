@@ -6,12 +6,12 @@
 
 use libfuzzer_sys::fuzz_target;
 use slidetrack_drivers::config::CanTactileConfig;
-use slidetrack_drivers::offline::CanLogDecoder;
+use slidetrack_drivers::can::log::CanLogDecoder;
 
 fuzz_target!(|data: &[u8]| {
     let Some((&deltas, text)) = data.split_first() else { return };
     for line in String::from_utf8_lossy(text).lines() {
-        let _ = slidetrack_drivers::candump::parse_any_line(line);
+        let _ = slidetrack_drivers::can::candump::parse_any_line(line);
     }
     let Ok(decoder) = CanLogDecoder::new(text, &CanTactileConfig::default(), None) else { return };
     let mut last = slidetrack_core::TimeNs::ZERO;

@@ -4,9 +4,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use slidetrack_drivers::scan::ModuleScanAssembler;
+use slidetrack_drivers::serial::scan::ModuleScanAssembler;
 use slidetrack_drivers::sensors::{default_sensors, module_taxels};
-use slidetrack_drivers::serial_protocol::{DECODER_CAPACITY, SerialDecoder, SerialEvent};
+use slidetrack_drivers::serial::protocol::{DECODER_CAPACITY, SerialDecoder, SerialEvent};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&chunk, bytes)) = data.split_first() else { return };

@@ -5,7 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use slidetrack_drivers::slcan::{MAX_LINE, SlcanDecoder, SlcanEvent, encode_frame_line};
+use slidetrack_drivers::slcan::protocol::{MAX_LINE, SlcanDecoder, SlcanEvent, encode_frame_line};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&chunk, bytes)) = data.split_first() else { return };

@@ -20,6 +20,9 @@ pub enum EmulateDevice {
     /// A Robotiq 2F-85/2F-140/Hand-E gripper answering Modbus RTU on a
     /// pseudo-terminal (prints its path); runs until Ctrl-C.
     Robotiq(EmulateRobotiqArgs),
+    /// Whichever tactile device `[hw.tactile]` names, fed by simulated
+    /// trials, where a program would find it (prints its path or URL).
+    Tactile(EmulateTactileArgs),
     /// The serial tactile modules of `[hw.tactile] kind = "serial"`, fed by
     /// simulated trials, on a pseudo-terminal (prints its path).
     Serial(EmulateTactileArgs),
@@ -63,7 +66,7 @@ pub struct EmulateRobotiqArgs {
     pub fault_after_s: f64,
 }
 
-/// `slidetrack emulate serial|slcan|xela-server`.
+/// `slidetrack emulate tactile|serial|slcan|xela-server`.
 #[derive(Debug, Args)]
 pub struct EmulateTactileArgs {
     /// Rig configuration: its `[sim]` tables make the data, its `[hw.tactile]`

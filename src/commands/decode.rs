@@ -11,9 +11,9 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use slidetrack_core::{DecoderCounters, TactileInfo, TactileLayout, TactileSample, TimeNs};
-use slidetrack_drivers::config::{CanTactileConfig, HwRigConfig, SerialTactileConfig, TactileDevice};
-use slidetrack_drivers::offline::{CanLogDecoder, SerialCaptureDecoder};
-use slidetrack_drivers::sensors::tactile_info;
+use slidetrack_experiment::devices::{
+    CanLogDecoder, HwRigConfig, SerialCaptureDecoder, TactileDevice, tactile_info,
+};
 use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_session::{
     ChannelHandle, Recorder, RecorderOptions, SessionMetadata, TactileDecoder, TactileRaw, TaxelLayout,
@@ -45,10 +45,7 @@ pub fn run(args: &DecodeArgs, quiet: bool) -> Result<()> {
     let reader = bar.wrap_read(file);
     let name = input.display().to_string();
     let summary = if kind == "can-log" {
-        let mut cfg = match configured {
-            Some(TactileDevice::Can(c)) => c,
-            _ => CanTactileConfig::default(),
-        };
+        let mut cfg = configured.as_ref().and_then(TactileDevice::as_can).cloned().unwrap_or_default();
         if let Some(t) = args.taxels {
             cfg.taxels = t;
         }
@@ -74,10 +71,7 @@ pub fn run(args: &DecodeArgs, quiet: bool) -> Result<()> {
         };
         out.finish(kind, &name, timing, &decoder.counters(), &extra)?
     } else {
-        let mut cfg = match configured {
-            Some(TactileDevice::Serial(s)) => s,
-            _ => SerialTactileConfig::default(),
-        };
+        let mut cfg = configured.as_ref().and_then(TactileDevice::as_serial).cloned().unwrap_or_default();
         let rate_hz = args.rate.unwrap_or(cfg.rate_hz);
         if !(rate_hz.is_finite() && rate_hz > 0.0) {
             bail!("--rate must be a positive scan rate in Hz, got {rate_hz}");

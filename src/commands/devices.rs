@@ -4,7 +4,7 @@
 use std::fmt::Write;
 
 use anyhow::Result;
-use slidetrack_drivers::devices::{DeviceList, list_devices};
+use slidetrack_experiment::devices::{DeviceList, list_devices};
 
 use crate::cli::DevicesArgs;
 
@@ -74,7 +74,7 @@ pub fn render(list: &DeviceList) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use slidetrack_drivers::devices::{CameraListing, CanListing, FormatListing, SizeListing};
+    use slidetrack_experiment::devices::{CameraListing, CanListing, FormatListing, SizeListing};
 
     #[test]
     fn an_empty_machine_says_that_nothing_was_found() {

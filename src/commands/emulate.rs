@@ -5,10 +5,9 @@ use std::io::Write;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use slidetrack_drivers::robotiq::{RobotiqEmulator, RobotiqEmulatorOptions, RobotiqModel};
-use slidetrack_experiment::emulate::{EmulatedTactile, start_tactile_emulator};
+use slidetrack_experiment::devices::{RobotiqEmulator, RobotiqEmulatorOptions, RobotiqModel};
+use slidetrack_experiment::emulate::{EmulatedTactile, ObjectConfig, start_tactile_emulator};
 use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_sim::ObjectConfig;
 
 use super::stop_flag;
 use crate::cli::{EmulateArgs, EmulateDevice, EmulateRobotiqArgs, EmulateTactileArgs};
@@ -16,6 +15,7 @@ use crate::cli::{EmulateArgs, EmulateDevice, EmulateRobotiqArgs, EmulateTactileA
 pub fn run(args: &EmulateArgs) -> Result<()> {
     match &args.device {
         EmulateDevice::Robotiq(a) => robotiq(a),
+        EmulateDevice::Tactile(a) => tactile(EmulatedTactile::Configured, a),
         EmulateDevice::Serial(a) => tactile(EmulatedTactile::Serial, a),
         EmulateDevice::Slcan(a) => tactile(EmulatedTactile::Slcan, a),
         EmulateDevice::XelaServer(a) => tactile(EmulatedTactile::XelaServer, a),

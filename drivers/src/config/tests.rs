@@ -1,7 +1,7 @@
 //! Parsing and validating the `[hw]` table.
 
 use super::*;
-use crate::can_protocol::CanFrame;
+use crate::can::protocol::CanFrame;
 
 fn parse(text: &str) -> Result<HwRigConfig, slidetrack_core::ConfigError> {
     slidetrack_core::parse_toml(text, "rig.toml")

@@ -14,16 +14,13 @@ use slidetrack_core::{
     Camera, CameraIntrinsics, Clock, HandActuator, HandMonitor, TactileSource, TruthSource, WallClock,
     parse_toml,
 };
+use slidetrack_drivers::V4l2Camera;
+use slidetrack_drivers::can_hand::backend::CanHand;
 use slidetrack_drivers::config::{
-    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, RobotiqConfig, TactileDevice, V4l2CameraConfig,
+    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, RobotiqConfig, V4l2CameraConfig,
 };
-use slidetrack_drivers::robotiq::{
+use slidetrack_drivers::robotiq::backend::{
     EmulatedRobotiqGripper, EmulatedRobotiqMonitor, RobotiqGripper, RobotiqMonitor,
-};
-use slidetrack_drivers::xela_ws::config::EMULATED_URL;
-use slidetrack_drivers::xela_ws::{EmulatedXelaWsTactile, XelaWsTactile};
-use slidetrack_drivers::{
-    CanHand, CanTactile, EmulatedSerialTactile, EmulatedSlcanTactile, SerialTactile, V4l2Camera,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{
@@ -35,15 +32,7 @@ use crate::marker::MarkerSource;
 
 /// A one-line description of the devices, for the log.
 pub fn describe(hw: &HwRigConfig) -> String {
-    let tactile = match &hw.tactile {
-        TactileDevice::Sim => "sim".to_string(),
-        TactileDevice::Serial(s) => format!("serial {}", s.port),
-        TactileDevice::Can(c) => match &c.slcan {
-            Some(s) => format!("CAN via SLCAN adapter {}", s.port),
-            None => format!("CAN {}", c.interface),
-        },
-        TactileDevice::XelaWs(x) => format!("xela_server {}", x.url),
-    };
+    let tactile = hw.tactile.describe();
     let camera = match &hw.camera {
         CameraDevice::None => "none".to_string(),
         CameraDevice::Sim => "sim".to_string(),
@@ -84,12 +73,11 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     };
     tracing::info!("{}", describe(hw));
     let drive = hand_use == HandUse::Drive;
-    let Emulation { tactile: emulated, gripper_on_world } = emulation(spec, hw, drive)?;
+    let Emulation { gripper_on_world } = emulation(spec, hw, drive)?;
     let (prepared, markers) = prepare_camera(spec, &hw.camera)?;
 
     let clock: Arc<dyn Clock> = Arc::new(WallClock::start());
-    let needs_world = matches!(hw.tactile, TactileDevice::Sim)
-        || emulated
+    let needs_world = hw.tactile.feels_simulated_world()
         || (drive && matches!(hw.hand, HandDevice::Sim))
         || gripper_on_world
         || matches!(prepared, Some(PreparedCamera::Sim(_)));
@@ -117,34 +105,11 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     }
     let camera = open_camera(spec, prepared, world.as_ref(), &clock)?;
     let sim_rate = spec.rig.sim.tactile_rate_hz;
-    let mut truth: Option<Box<dyn TruthSource>> = None;
-    let tactile: Box<dyn TactileSource> = match (&hw.tactile, sim_tactile) {
-        (TactileDevice::Sim, Some(t)) => {
-            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
-            Box::new(t)
-        }
-        (TactileDevice::Serial(s), Some(t)) if emulated => {
-            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
-            Box::new(EmulatedSerialTactile::start(Box::new(t), s, sim_rate, Arc::clone(&clock))?)
-        }
-        (TactileDevice::Serial(s), _) => {
-            Box::new(SerialTactile::open(&s.port, s, s.rate_hz, Arc::clone(&clock))?)
-        }
-        (TactileDevice::Can(c), Some(t)) if emulated => {
-            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
-            Box::new(EmulatedSlcanTactile::start(Box::new(t), c, sim_rate, Arc::clone(&clock))?)
-        }
-        (TactileDevice::Can(c), _) => Box::new(CanTactile::open(c, Arc::clone(&clock))?),
-        (TactileDevice::XelaWs(x), Some(t)) if emulated => {
-            truth = sim_truth.map(|t| Box::new(t) as Box<dyn TruthSource>);
-            Box::new(EmulatedXelaWsTactile::start(Box::new(t), x, sim_rate, Arc::clone(&clock))?)
-        }
-        (TactileDevice::XelaWs(x), _) => {
-            Box::new(XelaWsTactile::connect(&x.url, x, x.rate_hz, Arc::clone(&clock))?)
-        }
-        (TactileDevice::Sim, None) => bail!("internal: the simulated tactile modules were not built"),
-    };
-    if world.is_some() && !emulated && !matches!(hw.tactile, TactileDevice::Sim) {
+    let truth =
+        sim_truth.filter(|_| hw.tactile.feels_simulated_world()).map(|t| Box::new(t) as Box<dyn TruthSource>);
+    let simulated = sim_tactile.map(|t| Box::new(t) as Box<dyn TactileSource>);
+    let tactile = hw.tactile.open(simulated, sim_rate, Arc::clone(&clock))?;
+    if world.is_some() && !hw.tactile.feels_simulated_world() {
         tracing::warn!("the simulated hand or camera does not feel the real sensors: the loop is open");
     }
     let tactile_info = tactile.info();
@@ -195,8 +160,6 @@ fn open_robotiq(
 
 /// Which devices are emulated on the simulated world.
 struct Emulation {
-    /// The tactile device is the simulated rig behind its emulator.
-    tactile: bool,
     /// The Robotiq gripper is the simulated gripper behind its emulator (the
     /// sensors feel it).
     gripper_on_world: bool,
@@ -205,12 +168,7 @@ struct Emulation {
 /// What `hw` emulates, refusing combinations whose emulated sensors would
 /// feel no hand.
 fn emulation(spec: &TrialSpec, hw: &HwRigConfig, drive: bool) -> Result<Emulation> {
-    let emulated = match &hw.tactile {
-        TactileDevice::Serial(s) => s.port == EMULATED_PORT,
-        TactileDevice::XelaWs(x) => x.url == EMULATED_URL,
-        TactileDevice::Can(c) => c.slcan.as_ref().is_some_and(|s| s.port == EMULATED_PORT),
-        _ => false,
-    };
+    let emulated = hw.tactile.is_emulated();
     let gripper_on_world = drive && emulated && emulated_robotiq(&hw.hand);
     if emulated && drive && !matches!(hw.hand, HandDevice::Sim) && !gripper_on_world {
         bail!(
@@ -224,7 +182,7 @@ fn emulation(spec: &TrialSpec, hw: &HwRigConfig, drive: bool) -> Result<Emulatio
              the emulated Robotiq is the simulated gripper the sensors feel"
         );
     }
-    Ok(Emulation { tactile: emulated, gripper_on_world })
+    Ok(Emulation { gripper_on_world })
 }
 
 /// True for a Robotiq hand whose port is the emulator.
