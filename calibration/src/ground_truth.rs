@@ -9,7 +9,7 @@
 use nalgebra::{Matrix3, Point3, Unit, Vector3};
 use serde::Deserialize;
 use slidetrack_core::{CameraPlacement, TimeNs};
-use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams, CvTrack};
+use slidetrack_estimators::constant_velocity::{CvParams, CvSample, CvTrack};
 use slidetrack_estimators::kf::Gaussian;
 use slidetrack_estimators::metrics::RunningRms;
 use slidetrack_estimators::rts::{Gate, MeasurementUse};
@@ -254,7 +254,7 @@ pub struct GroundTruth {
 pub fn smooth_ground_truth(
     scans: &[TimeNs],
     positions: &[(TimeNs, f64)],
-    params: &CvSmootherParams,
+    params: &CvParams,
 ) -> Result<GroundTruth, GroundTruthError> {
     if scans.is_empty() {
         return Err(GroundTruthError::NoScans);
@@ -269,7 +269,7 @@ pub fn smooth_ground_truth(
             z_m: g.measurement.map(|k| positions[k].1),
         })
         .collect();
-    let track = params.run(&samples)?;
+    let track = params.smooth(&samples)?;
     Ok(GroundTruth { grid, track, positions: positions.to_vec() })
 }
 

@@ -1,7 +1,7 @@
 //! The default smoother parameters of the ground truth, and their record in
 //! the channel metadata.
 
-use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_estimators::constant_velocity::CvParams;
 use slidetrack_estimators::rts::Gate;
 use slidetrack_session::GroundTruthParameters;
 
@@ -22,12 +22,12 @@ pub const DEFAULT_Q_VELOCITY_M2_PER_S3: f64 = 1e-4;
 
 /// The default parameters of the labelling (see `docs/ground-truth.md`
 /// for how they relate to the thesis's `Q = diag(0.01, 0.01)`, `R = 10`,
-/// which [`CvSmootherParams::default`] holds): `R` is a marker noise of
+/// which [`CvParams::default`] holds): `R` is a marker noise of
 /// 0.5 mm, `Q(dt) = diag(1e-8 m^2/s, 1e-4 m^2/s^3) dt`, the object starts at
 /// rest at 0 with `P0 = diag(R, (10 mm/s)^2)`, and the gate rejects marker
 /// positions beyond 5 standard deviations of the innovation.
-pub fn default_params() -> CvSmootherParams {
-    CvSmootherParams {
+pub fn default_params() -> CvParams {
+    CvParams {
         q_position_m2_per_s: DEFAULT_Q_POSITION_M2_PER_S,
         q_velocity_m2_per_s3: DEFAULT_Q_VELOCITY_M2_PER_S3,
         r_m2: DEFAULT_R_M2,
@@ -39,12 +39,12 @@ pub fn default_params() -> CvSmootherParams {
 
 /// The thesis's parameters exactly: `Q = diag(0.01, 0.01)` per 1/30 s step
 /// and `R = 10`, read in cm (only their ratios matter), no gate.
-pub fn thesis_params() -> CvSmootherParams {
-    CvSmootherParams::default()
+pub fn thesis_params() -> CvParams {
+    CvParams::default()
 }
 
 /// The metadata record of a labelling with `params` on `measurements`.
-pub fn parameters_record(params: &CvSmootherParams, measurements: &Measurements) -> GroundTruthParameters {
+pub fn parameters_record(params: &CvParams, measurements: &Measurements) -> GroundTruthParameters {
     let [pp, vv] = params.p0_diag;
     GroundTruthParameters {
         model: "constant velocity (thesis eqs. 6.12-6.15): x = (p, v); x_k = F x_k-1 + w, F = [[1, dt], [0, 1]], \
@@ -75,8 +75,8 @@ pub fn parameters_record(params: &CvSmootherParams, measurements: &Measurements)
 
 /// The smoother parameters of a metadata record (its off-diagonal initial
 /// covariance, always 0 here, is ignored).
-pub fn params_from_record(record: &GroundTruthParameters) -> CvSmootherParams {
-    CvSmootherParams {
+pub fn params_from_record(record: &GroundTruthParameters) -> CvParams {
+    CvParams {
         q_position_m2_per_s: record.q_position_m2_per_s,
         q_velocity_m2_per_s3: record.q_velocity_m2_per_s3,
         r_m2: record.r_m2,

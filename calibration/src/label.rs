@@ -7,8 +7,10 @@
 
 use std::path::{Path, PathBuf};
 
-use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams};
-use slidetrack_estimators::cv_tune::{TunedNoise, log_likelihood, tune_noise, tune_noise_jointly};
+use slidetrack_estimators::constant_velocity::tune::{
+    TunedNoise, log_likelihood, tune_noise, tune_noise_jointly,
+};
+use slidetrack_estimators::constant_velocity::{CvParams, CvSample};
 use slidetrack_session::{
     ChannelMessage, GroundTruthMeasurement, GroundTruthPlanar, GroundTruthPose, GroundTruthSliding,
     NewChannel, ReadOptions, SessionError, rewrite_session,
@@ -27,7 +29,7 @@ pub use crate::session_inputs::{SessionInputs, read_inputs};
 #[derive(Clone, Debug, PartialEq)]
 pub struct LabelOptions {
     /// The smoother's parameters.
-    pub params: CvSmootherParams,
+    pub params: CvParams,
     /// Where the positions along the axis come from.
     pub axis: AxisSource,
     /// Label a truncated file (its complete chunks; the rewritten file is complete).
@@ -67,7 +69,7 @@ pub enum Tuning {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointTuning {
     /// The parameters the search started from.
-    pub start: CvSmootherParams,
+    pub start: CvParams,
     /// Sessions whose marker positions were used.
     pub sessions: usize,
     /// Marker positions used, over all sessions.
@@ -134,7 +136,7 @@ pub struct LabelReport {
     /// The file was written (false for a dry run).
     pub written: bool,
     /// The smoother's parameters used (tuned ones when tuning).
-    pub params: CvSmootherParams,
+    pub params: CvParams,
     /// `params` were tuned (on this session or over several).
     pub tuned: bool,
     /// The log-likelihood of this session's marker positions at `params`
@@ -213,7 +215,7 @@ fn marker_samples(measurements: &Measurements) -> Vec<CvSample> {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fit {
     /// The smoother's parameters used.
-    pub params: CvSmootherParams,
+    pub params: CvParams,
     /// The log-likelihood of the session's marker positions at `params`.
     pub log_likelihood: f64,
     /// With [`Tuning::PerSession`]: how `params` were found.
@@ -261,7 +263,7 @@ pub fn compute(
 pub fn tune_sessions(
     paths: &[PathBuf],
     options: &LabelOptions,
-) -> Result<(CvSmootherParams, JointTuning), LabelError> {
+) -> Result<(CvParams, JointTuning), LabelError> {
     let read = ReadOptions { recover: options.recover };
     let mut sequences = Vec::with_capacity(paths.len());
     for path in paths {

@@ -9,7 +9,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group};
-use slidetrack_estimators::cv_smoother::{CvSample, CvSmootherParams};
+use slidetrack_estimators::constant_velocity::{CvParams, CvSample};
 use slidetrack_estimators::rts::Gate;
 
 const SESSIONS: usize = 100;
@@ -26,13 +26,16 @@ fn session(seed: usize) -> Vec<CvSample> {
         .collect()
 }
 
-fn smooth_all(params: &CvSmootherParams, sessions: &[Vec<CvSample>]) -> f64 {
-    sessions.iter().map(|s| params.run(s).map_or(f64::NAN, |track| track.smoothed[STEPS / 2].mean[0])).sum()
+fn smooth_all(params: &CvParams, sessions: &[Vec<CvSample>]) -> f64 {
+    sessions
+        .iter()
+        .map(|s| params.smooth(s).map_or(f64::NAN, |track| track.smoothed[STEPS / 2].mean[0]))
+        .sum()
 }
 
 fn bench(c: &mut Criterion) {
     let sessions: Vec<Vec<CvSample>> = (0..SESSIONS).map(session).collect();
-    let params = CvSmootherParams { gate: Some(Gate::at(25.0)), ..CvSmootherParams::default() };
+    let params = CvParams { gate: Some(Gate::at(25.0)), ..CvParams::default() };
     let mut group = c.benchmark_group("ground_truth");
     group.sample_size(10).measurement_time(Duration::from_secs(8));
     group.bench_function("smooth 100 sessions x 6000 steps", |b| {

@@ -1,6 +1,6 @@
 //! The linear Kalman filter (thesis Algorithm 1), generic over the state
-//! size `N` and the measurement size `M`, with `dt` passed per step and
-//! `None` for a missing measurement (predict only).
+//! size `N` and the measurement size `M`: the model gives `F` and `Q` per
+//! step (so `dt` may vary), and a step without a measurement only predicts.
 #![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use nalgebra::{SMatrix, SVector};
@@ -92,67 +92,6 @@ pub fn update<const N: usize, const M: usize>(
     Ok((Gaussian { mean, cov }, innov))
 }
 
-/// The constant-velocity model of a scalar quantity, state `(position,
-/// velocity)` (eq. 6.13): `F = [[1, dt], [0, 1]]`, measurement `H = [1, 0]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ConstantVelocity {
-    /// Process noise covariance added at each step, `diag(q_position, q_velocity)`
-    /// in (unit^2, (unit/s)^2).
-    pub q_diag: [f64; 2],
-    /// Measurement noise variance (unit^2).
-    pub r: f64,
-}
-
-impl Default for ConstantVelocity {
-    /// The thesis's ground-truth smoother (Sec. 6.2.3): `Q = diag(0.01, 0.01)`
-    /// per step and `R = 10`, in the squares of whatever length unit the
-    /// measurements use (only the ratios of `Q`, `R` and `P0` shape the
-    /// smoothed mean). [`crate::cv_smoother::CvSmootherParams::default`]
-    /// holds the same values as rates in SI units, read in cm at 30 Hz steps.
-    fn default() -> Self {
-        ConstantVelocity { q_diag: [0.01, 0.01], r: 10.0 }
-    }
-}
-
-impl ConstantVelocity {
-    /// `F(dt)`.
-    #[rustfmt::skip]
-    pub fn F(dt_s: f64) -> SMatrix<f64, 2, 2> {
-        SMatrix::<f64, 2, 2>::new(
-            1.0, dt_s,
-            0.0, 1.0,
-        )
-    }
-
-    /// `H`: the position is measured.
-    pub fn H() -> SMatrix<f64, 1, 2> {
-        SMatrix::<f64, 1, 2>::new(1.0, 0.0)
-    }
-
-    /// `Q`.
-    pub fn Q(&self) -> SMatrix<f64, 2, 2> {
-        SMatrix::<f64, 2, 2>::from_diagonal(&SVector::<f64, 2>::new(self.q_diag[0], self.q_diag[1]))
-    }
-
-    /// `R`.
-    pub fn R(&self) -> SMatrix<f64, 1, 1> {
-        SMatrix::<f64, 1, 1>::new(self.r)
-    }
-
-    /// One step: predict over `dt_s`, then correct with `z` when present and
-    /// finite (a missing or non-finite measurement is a predict-only step).
-    pub fn step(&self, belief: &Gaussian<2>, dt_s: f64, z: Option<f64>) -> Gaussian<2> {
-        let prior = predict(belief, &Self::F(dt_s), &self.Q());
-        match z.filter(|v| v.is_finite()) {
-            Some(z) => {
-                update(&prior, &SVector::<f64, 1>::new(z), &Self::H(), &self.R(), CovarianceUpdate::Joseph)
-                    .map_or(prior, |(post, _)| post)
-            }
-            None => prior,
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,36 +113,11 @@ mod tests {
     }
 
     #[test]
-    fn constant_velocity_without_noise_extrapolates_exactly() {
-        let cv = ConstantVelocity { q_diag: [0.0, 0.0], r: 1.0 };
-        let mut b = Gaussian::new(SVector::<f64, 2>::new(1.0, 2.0), SMatrix::<f64, 2, 2>::zeros());
-        for _ in 0..10 {
-            b = cv.step(&b, 0.1, None);
-        }
-        assert_relative_eq!(b.mean[0], 3.0, epsilon = 1e-12);
-        assert_relative_eq!(b.mean[1], 2.0, epsilon = 1e-12);
-    }
-
-    #[test]
-    fn a_steady_ramp_is_tracked_with_its_slope() {
-        let cv = ConstantVelocity { q_diag: [1e-6, 1e-4], r: 0.01 };
-        let mut b = Gaussian::new(SVector::<f64, 2>::zeros(), SMatrix::<f64, 2, 2>::identity());
-        for k in 1..=500 {
-            let t = k as f64 * 0.01;
-            b = cv.step(&b, 0.01, Some(0.5 * t));
-        }
-        assert_relative_eq!(b.mean[1], 0.5, epsilon = 1e-3);
-    }
-
-    #[test]
-    fn non_finite_measurements_are_refused_and_skipped() {
-        let cv = ConstantVelocity { q_diag: [0.01, 0.01], r: 1.0 };
+    fn non_finite_measurements_are_refused() {
         let b = Gaussian::new(SVector::<f64, 2>::zeros(), SMatrix::<f64, 2, 2>::identity());
-        let skipped = cv.step(&b, 0.1, Some(f64::NAN));
-        let predicted = cv.step(&b, 0.1, None);
-        assert_eq!(skipped, predicted);
-        let H = ConstantVelocity::H();
+        let H = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
+        let R = SMatrix::<f64, 1, 1>::new(1.0);
         let z = SVector::<f64, 1>::new(f64::INFINITY);
-        assert!(update(&b, &z, &H, &cv.R(), CovarianceUpdate::Joseph).is_err());
+        assert!(update(&b, &z, &H, &R, CovarianceUpdate::Joseph).is_err());
     }
 }

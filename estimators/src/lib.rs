@@ -1,8 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
-pub mod cv_smoother;
-pub mod cv_tune;
+pub mod constant_velocity;
 pub mod dekf;
 pub mod derivative;
 pub mod kf;

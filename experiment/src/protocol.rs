@@ -5,7 +5,7 @@
 
 use slidetrack_calibration::ground_truth::{default_params, thesis_params};
 use slidetrack_calibration::label::GroundTruthSlot;
-use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_estimators::constant_velocity::CvParams;
 
 use crate::dataset::TruthSource;
 use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
@@ -40,7 +40,7 @@ impl Protocol {
     }
 
     /// The smoother's parameters of the ground truth.
-    pub fn label_params(self) -> CvSmootherParams {
+    pub fn label_params(self) -> CvParams {
         match self {
             Protocol::Default => default_params(),
             Protocol::Thesis => thesis_params(),

@@ -5,19 +5,15 @@
 //! terminal; beside them a vision
 //! tracker, on the simulated rig's rendered in-hand RGB-D scene or, on a
 //! hardware rig, on its RGB-D camera in a thread of its own.
-#![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
 use std::sync::{Arc, Mutex};
 
 use anyhow::Result;
-use nalgebra::SVector;
 use slidetrack_control::{Baseline, ObserverError, ProtocolEvent};
 use slidetrack_core::{Frame, HandStatus, Phase, SimTruth, TactileInfo, TimeNs};
-use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_estimators::constant_velocity::{CvFilter, CvParams};
 use slidetrack_estimators::dekf::DekfModel;
-use slidetrack_estimators::kf::Gaussian;
 use slidetrack_estimators::metrics::RunningRms;
-use slidetrack_estimators::rts::{GatedKalmanFilter, Measurement, Transition};
 use slidetrack_estimators::slip::{GraspDetectorConfig, GraspState};
 use slidetrack_session::{
     ArucoEstimate, ChannelHandle, Logger, SlidingEstimate, SlipEstimate, TactileDerivative,
@@ -28,49 +24,6 @@ use crate::grasp_state::SlipStage;
 use crate::observer::TrialExtension;
 use crate::vision_inhand::InHandVision;
 use slidetrack_vision::live::LiveThread;
-
-/// The causal half of the ground truth's filter: the constant-velocity model
-/// of eq. (6.13) on the marker position, predicted to each camera frame and
-/// corrected with the marker when it was found and passes the gate (the
-/// estimators' gated Kalman filter, as the ground truth's forward pass).
-pub struct MarkerFilter {
-    params: CvSmootherParams,
-    /// Time (s) and filter after the last frame; `None` before the first detection.
-    last: Option<(f64, GatedKalmanFilter<2>)>,
-}
-
-impl MarkerFilter {
-    /// A filter with the ground truth's parameters (SI units).
-    pub fn new(params: CvSmootherParams) -> MarkerFilter {
-        MarkerFilter { params, last: None }
-    }
-
-    /// One camera frame at `t_s` with the marker position `z_m` (m) when it
-    /// was found. Returns the belief after the frame (m, m/s), `None` until
-    /// the marker has been seen once.
-    pub fn step(&mut self, t_s: f64, z_m: Option<f64>) -> Option<Gaussian<2>> {
-        let z = z_m.filter(|z| z.is_finite());
-        let (transition, mut filter) = match self.last {
-            None => {
-                z?;
-                let filter = GatedKalmanFilter::new(self.params.initial()).with_gate(self.params.gate);
-                (Transition::identity(), filter)
-            }
-            Some((t0, filter)) => {
-                let dt = (t_s - t0).max(0.0);
-                (Transition { F: CvSmootherParams::F(dt), Q: self.params.Q(dt) }, filter)
-            }
-        };
-        let (H, R) = (CvSmootherParams::H(), self.params.R());
-        let measurement = z.map(|z| Measurement { z: SVector::<f64, 1>::new(z), H, R });
-        if filter.step(transition, measurement.as_ref()).is_err() {
-            // A singular innovation: the frame only predicts.
-            let _ = filter.step::<1>(transition, None);
-        }
-        self.last = Some((t_s, filter));
-        Some(*filter.belief())
-    }
-}
 
 /// Errors accumulated against the simulator's truth.
 #[derive(Clone, Copy, Debug, Default)]
@@ -160,7 +113,7 @@ pub struct LiveTrackers {
     /// The grasp-state detector and `/estimate/slip`.
     slip: SlipStage,
     slip_ch: ChannelHandle<SlipEstimate>,
-    marker: Option<(MarkerFilter, ChannelHandle<ArucoEstimate>)>,
+    marker: Option<(CvFilter, ChannelHandle<ArucoEstimate>)>,
     vision: Option<InHandVision>,
     /// The vision tracker on the rig's RGB-D camera, stopped when the
     /// trackers are dropped (before the session is finished).
@@ -185,7 +138,7 @@ impl LiveTrackers {
         tactile: &TactileInfo,
         model: &DekfModel,
         model_name: &str,
-        marker: Option<CvSmootherParams>,
+        marker: Option<CvParams>,
         status: Arc<Mutex<LiveStatus>>,
         display: Box<dyn FnMut(&str)>,
     ) -> Result<LiveTrackers> {
@@ -202,7 +155,7 @@ impl LiveTrackers {
                         params.gate.map(|g| g.max_mahalanobis2)
                     ),
                 )]);
-                Some((MarkerFilter::new(params), logger.register::<ArucoEstimate>(meta)?))
+                Some((CvFilter::new(params), logger.register::<ArucoEstimate>(meta)?))
             }
             None => None,
         };
@@ -399,40 +352,5 @@ impl TrialExtension for LiveTrackers {
             self.released = true;
         }
         self.slip.protocol_event(&event.phase);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_marker_filter_starts_at_the_first_detection_and_follows_a_constant_velocity() {
-        let params =
-            CvSmootherParams { gate: None, ..slidetrack_calibration::ground_truth::default_params() };
-        let mut f = MarkerFilter::new(params);
-        assert!(f.step(0.0, None).is_none(), "nothing before the first detection");
-        let mut last = None;
-        for k in 1..300 {
-            let t = k as f64 / 30.0;
-            // 1 cm/s, one frame in five missed.
-            let z = (k % 5 != 0).then_some(0.01 * t);
-            last = f.step(t, z);
-        }
-        let b = last.expect("a belief after the first detection");
-        assert!((b.mean[1] - 0.01).abs() < 5e-4, "velocity {}", b.mean[1]);
-        assert!((b.mean[0] - 0.01 * 299.0 / 30.0).abs() < 5e-4, "position {}", b.mean[0]);
-    }
-
-    #[test]
-    fn the_marker_filter_rejects_an_outlier_and_predicts_through_nan() {
-        let mut f = MarkerFilter::new(slidetrack_calibration::ground_truth::default_params());
-        for k in 0..60 {
-            f.step(k as f64 / 30.0, Some(0.0));
-        }
-        let jump = f.step(2.0, Some(0.05)).expect("belief");
-        assert!(jump.mean[0].abs() < 1e-4, "a 5 cm jump is an outlier: {}", jump.mean[0]);
-        let nan = f.step(2.1, Some(f64::NAN)).expect("belief");
-        assert!(nan.mean.iter().all(|x| x.is_finite()));
     }
 }

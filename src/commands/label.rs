@@ -13,7 +13,7 @@ use slidetrack_calibration::label::read_inputs;
 use slidetrack_calibration::label::{
     GroundTruthSlot, JointTuning, LabelOptions, LabelReport, Tuning, label_session, tune_sessions,
 };
-use slidetrack_estimators::cv_smoother::CvSmootherParams;
+use slidetrack_estimators::constant_velocity::CvParams;
 use slidetrack_session::ReadOptions;
 
 use crate::cli::{AxisArg, LabelArgs, SlotArg};
@@ -180,7 +180,7 @@ fn in_hand_text(r: &InHandRecord) -> String {
 }
 
 /// The defaults with the command line's overrides, checked.
-fn params(args: &LabelArgs) -> Result<CvSmootherParams> {
+fn params(args: &LabelArgs) -> Result<CvParams> {
     let mut p = if args.thesis { thesis_params() } else { default_params() };
     let positive = |name: &str, v: f64| -> Result<f64> {
         if v.is_finite() && v > 0.0 { Ok(v) } else { bail!("--{name} must be a positive number, got {v}") }
@@ -212,7 +212,7 @@ fn params(args: &LabelArgs) -> Result<CvSmootherParams> {
 }
 
 /// The tuned densities in one line (R also as the marker's standard deviation).
-fn densities_text(p: &CvSmootherParams) -> String {
+fn densities_text(p: &CvParams) -> String {
     format!(
         "q_p = {:.3e} m^2/s, q_v = {:.3e} m^2/s^3, R = {:.3e} m^2 (marker noise {:.3} mm)",
         p.q_position_m2_per_s,
@@ -222,7 +222,7 @@ fn densities_text(p: &CvSmootherParams) -> String {
     )
 }
 
-fn joint_text(p: &CvSmootherParams, j: &JointTuning) -> String {
+fn joint_text(p: &CvParams, j: &JointTuning) -> String {
     format!(
         "tuned jointly on {} sessions ({} marker positions): {}; log-likelihood {:.1}",
         j.sessions,
@@ -232,7 +232,7 @@ fn joint_text(p: &CvSmootherParams, j: &JointTuning) -> String {
     )
 }
 
-fn joint_json(p: &CvSmootherParams, j: &JointTuning) -> serde_json::Value {
+fn joint_json(p: &CvParams, j: &JointTuning) -> serde_json::Value {
     json!({
         "sessions": j.sessions,
         "marker_positions": j.measurements,

@@ -1,6 +1,6 @@
 //! A constant-velocity RTS smoother for a full 6-DoF pose: the ground truth
 //! of an object's pose in the hand from noisy marker poses (ArUco,
-//! `camera_from_object`), the 6-DoF counterpart of [`crate::cv_smoother`]
+//! `camera_from_object`), the 6-DoF counterpart of [`crate::constant_velocity`]
 //! (thesis Sec. 6.2.3, Algorithm 10), with orientation handled as in thesis
 //! Sec. 2.3.2 (unit quaternions, Algorithm 9's operators).
 //!
@@ -9,7 +9,7 @@
 //! frame the marker poses are given in).
 //!
 //! - Translation: position `p` (m) and velocity `v` (m/s) of the object
-//!   origin, constant velocity on each axis exactly as [`crate::cv_smoother`]:
+//!   origin, constant velocity on each axis exactly as [`crate::constant_velocity`]:
 //!   `F(dt) = [[1, dt], [0, 1]]`, `Q(dt) = diag(q_p, q_v) dt`, `H = [1, 0]`,
 //!   `R = r_p`, the same densities on the three independent axes.
 //! - Orientation: `q = frame_from_object` and the angular velocity `omega`
@@ -66,7 +66,7 @@
 //! The filter starts at the first sample with a measurement: its prior is
 //! that pose with zero velocities and covariance `P0`, which the measurement
 //! then corrects like any other (with `P0 >> R` the usual diffuse start; as
-//! [`crate::cv_smoother`] with `x0` at the first measured position). Samples
+//! [`crate::constant_velocity`] with `x0` at the first measured position). Samples
 //! before it get a copy of its filtered and smoothed estimate (the pose held,
 //! not extrapolated backwards). A sample without a measurement is a
 //! predict-only step. The gate acts on the 6-D pose innovation as a whole
@@ -122,7 +122,7 @@ pub struct PoseMeasurement {
 }
 
 /// The parameters of the pose smoother, in SI units. The densities scale
-/// `Q` with the step as in [`crate::cv_smoother`]: `Q(dt) = q dt`.
+/// `Q` with the step as in [`crate::constant_velocity`]: `Q(dt) = q dt`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PoseSmootherParams {
     /// Spectral density of the position random walk, per axis, `q_p` (m^2/s).
@@ -242,7 +242,7 @@ fn track(samples: &[PoseSample], first: usize, beliefs: &[Belief]) -> Vec<Smooth
 }
 
 /// `log p(z_1:T)` of the marker poses of `samples` under `params`, the
-/// gated robust form of [`crate::cv_tune`]: each pose adds the Gaussian
+/// gated robust form of [`crate::constant_velocity::tune`]: each pose adds the Gaussian
 /// log-density of its 6-D innovation, a pose beyond the gate adds the term
 /// at the gate's edge `-1/2 (log det(2 pi S) + d2_max)` and is not used. As
 /// there, the gate's re-acquisition is left out (the likelihood is that of a

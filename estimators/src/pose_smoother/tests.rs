@@ -12,7 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::*;
-use crate::cv_smoother::{CvSample, CvSmootherParams};
+use crate::constant_velocity::{CvParams, CvSample};
 use crate::orientation::quaternion::exp;
 
 /// A true pose: position (m) and `frame_from_object`.
@@ -259,7 +259,7 @@ fn the_sign_of_a_measured_quaternion_does_not_matter() {
 }
 
 /// With the orientation at rest, each position axis is
-/// [`crate::cv_smoother`] with the same parameters and `x0` at the first
+/// [`crate::constant_velocity`] with the same parameters and `x0` at the first
 /// measured position: the translation follows the project's conventions
 /// (`Q` scaled with `dt`, `F`, the Joseph update, the RTS step).
 #[test]
@@ -278,7 +278,7 @@ fn the_translation_is_the_1d_smoother_per_axis() {
             .iter()
             .map(|s| CvSample { t_s: s.t_s, z_m: s.measurement.map(|m| m.position_m[axis]) })
             .collect();
-        let cv = CvSmootherParams {
+        let cv = CvParams {
             q_position_m2_per_s: params.q_position_m2_per_s,
             q_velocity_m2_per_s3: params.q_velocity_m2_per_s3,
             r_m2: params.r_position_m2,
@@ -286,7 +286,7 @@ fn the_translation_is_the_1d_smoother_per_axis() {
             p0_diag: [params.p0_position_m2, params.p0_velocity_m2_per_s2],
             gate: None,
         }
-        .run(&cv_samples)
+        .smooth(&cv_samples)
         .unwrap();
         for (pose, g) in out.smoothed.iter().zip(&cv.smoothed).chain(out.filtered.iter().zip(&cv.filtered)) {
             assert_relative_eq!(pose.position_m[axis], g.mean[0], epsilon = 1e-9);

@@ -1,7 +1,7 @@
 //! The six noise densities of the pose smoother estimated from the marker
 //! poses alone: maximum of the summed gated log-likelihood
 //! ([`super::log_likelihood`]) over sequences, under the rules of
-//! [`crate::cv_tune`] (robust gated likelihood, the gate's re-acquisition
+//! [`crate::constant_velocity::tune`] (robust gated likelihood, the gate's re-acquisition
 //! left out, log scale, Nelder-Mead restarted from its best point).
 //!
 //! # Two blocks of three
@@ -9,7 +9,7 @@
 //! `r_p`) and an orientation term (`q_theta`, `q_omega`, `r_theta`): the
 //! two filters share nothing but the gate's decisions. So the search
 //! alternates between the two blocks, each a three-parameter Nelder-Mead
-//! ([`crate::cv_tune`]'s) with the other block held. Without a gate the
+//! ([`crate::constant_velocity::tune`]'s) with the other block held. Without a gate the
 //! objective is separable and one round is the joint optimum; with one, a
 //! pose rejected for its orientation also drops its position, so the rounds
 //! repeat until one gains less than 1e-3 in log-likelihood (at most
@@ -25,7 +25,7 @@
 use rayon::prelude::*;
 
 use super::{PoseSample, PoseSmootherParams, log_likelihood};
-use crate::cv_tune::nelder_mead;
+use crate::constant_velocity::tune::nelder_mead;
 
 /// The interval every tuned density stays in, in the SI unit of each (m^2/s,
 /// m^2/s^3, m^2, rad^2/s, rad^2/s^3, rad^2): from a standard deviation of
@@ -133,7 +133,7 @@ pub fn tune_pose_noise(start: &PoseSmootherParams, sequences: &[&[PoseSample]]) 
 /// The block's densities that maximise `total` with the rest of `params`
 /// held: Nelder-Mead restarted from its best point with a fresh simplex a
 /// decade wide until a restart gains less than 1e-3, as
-/// [`crate::cv_tune::tune_noise_jointly`]. Returns the parameters, their
+/// [`crate::constant_velocity::tune::tune_noise_jointly`]. Returns the parameters, their
 /// log-likelihood and the evaluations used.
 fn tune_block(
     params: &PoseSmootherParams,

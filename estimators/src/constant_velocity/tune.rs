@@ -1,7 +1,7 @@
-//! The ground-truth smoother's noise parameters estimated from the marker
+//! The constant-velocity model's noise parameters estimated from the marker
 //! positions alone: maximum marginal likelihood of the measurements under
-//! the constant-velocity model (thesis eqs. 6.12-6.14), so that a rig
-//! without a simulator's truth can choose them.
+//! the model (thesis eqs. 6.12-6.14), so that a rig without a simulator's
+//! truth can choose them for the ground-truth smoother.
 //!
 //! The Kalman filter's innovations `nu_k ~ N(0, S_k)` factor the likelihood
 //! of the measurements (Särkkä, *Bayesian Filtering and Smoothing*, eq.
@@ -19,13 +19,14 @@
 //! densities are found on a log scale by Nelder-Mead: three parameters and a
 //! smooth objective do not warrant an optimisation crate.
 
-use crate::cv_smoother::{CvSample, CvSmootherParams};
+use super::expanded::ExpandedBelief;
+use super::{CvParams, CvSample};
 
 /// The tuned parameters and how they were found.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TunedNoise {
     /// The parameters: `q_p`, `q_v` and `R` estimated; the rest as given.
-    pub params: CvSmootherParams,
+    pub params: CvParams,
     /// The log-likelihood of the measurements at `params`.
     pub log_likelihood: f64,
     /// Marker positions used.
@@ -37,30 +38,22 @@ pub struct TunedNoise {
 /// `log p(z_1:T)` of the measurements of `samples` under `params` (the
 /// gated, robust form of the module documentation). `-inf` when a
 /// covariance stops being positive.
-pub fn log_likelihood(params: &CvSmootherParams, samples: &[CvSample]) -> f64 {
+pub fn log_likelihood(params: &CvParams, samples: &[CvSample]) -> f64 {
     let two_pi = std::f64::consts::TAU;
-    let [pp, vv] = params.p0_diag;
-    let (mut x, mut p) = (params.x0, [[pp, 0.0], [0.0, vv]]);
+    let mut belief = ExpandedBelief::initial(params);
     let mut sum = 0.0;
     let gate = params.gate.map(|g| g.max_mahalanobis2);
     let mut previous: Option<f64> = None;
     for s in samples {
         if let Some(t0) = previous {
-            let dt = s.t_s - t0;
-            // x = F x, P = F P F^T + Q with F = [[1, dt], [0, 1]].
-            x = [x[0] + dt * x[1], x[1]];
-            let p00 = p[0][0] + 2.0 * dt * p[0][1] + dt * dt * p[1][1] + params.q_position_m2_per_s * dt;
-            let p01 = p[0][1] + dt * p[1][1];
-            let p11 = p[1][1] + params.q_velocity_m2_per_s3 * dt;
-            p = [[p00, p01], [p01, p11]];
+            belief.predict(params, s.t_s - t0);
         }
         previous = Some(s.t_s);
         let Some(z) = s.z_m else { continue };
-        let s_var = p[0][0] + params.r_m2;
+        let (nu, s_var) = belief.innovation(params, z);
         if !(s_var > 0.0 && s_var.is_finite()) {
             return f64::NEG_INFINITY;
         }
-        let nu = z - x[0];
         let d2 = nu * nu / s_var;
         if let Some(max) = gate
             && d2 > max
@@ -69,11 +62,7 @@ pub fn log_likelihood(params: &CvSmootherParams, samples: &[CvSample]) -> f64 {
             continue;
         }
         sum -= 0.5 * ((two_pi * s_var).ln() + d2);
-        // K = P H^T / S, x += K nu, P = (I - K H) P (the scalar-measurement form).
-        let k = [p[0][0] / s_var, p[0][1] / s_var];
-        x = [x[0] + k[0] * nu, x[1] + k[1] * nu];
-        p = [[p[0][0] - k[0] * p[0][0], p[0][1] - k[0] * p[0][1]], [0.0, p[1][1] - k[1] * p[0][1]]];
-        p[1][0] = p[0][1];
+        belief.correct(nu, s_var);
     }
     sum
 }
@@ -81,7 +70,7 @@ pub fn log_likelihood(params: &CvSmootherParams, samples: &[CvSample]) -> f64 {
 /// `q_p`, `q_v` and `R` of `start` replaced by the values that maximise the
 /// likelihood of the measurements in `samples` (times strictly increasing),
 /// searched from `start`'s values. The gate, `x0` and `P0` stay as given.
-pub fn tune_noise(start: &CvSmootherParams, samples: &[CvSample]) -> TunedNoise {
+pub fn tune_noise(start: &CvParams, samples: &[CvSample]) -> TunedNoise {
     tune_noise_jointly(start, &[samples])
 }
 
@@ -90,14 +79,14 @@ pub fn tune_noise(start: &CvSmootherParams, samples: &[CvSample]) -> TunedNoise 
 /// log-likelihoods, each sequence filtered from `start`'s `x0` and `P0`.
 /// One estimate from many sequences is steadier than one per sequence
 /// where a sequence holds little motion or few marker positions.
-pub fn tune_noise_jointly(start: &CvSmootherParams, sequences: &[&[CvSample]]) -> TunedNoise {
-    let with = |v: &[f64; 3]| CvSmootherParams {
+pub fn tune_noise_jointly(start: &CvParams, sequences: &[&[CvSample]]) -> TunedNoise {
+    let with = |v: &[f64; 3]| CvParams {
         q_position_m2_per_s: v[0].exp(),
         q_velocity_m2_per_s3: v[1].exp(),
         r_m2: v[2].exp(),
         ..*start
     };
-    let total = |params: &CvSmootherParams| sequences.iter().map(|s| log_likelihood(params, s)).sum::<f64>();
+    let total = |params: &CvParams| sequences.iter().map(|s| log_likelihood(params, s)).sum::<f64>();
     let cost = |v: &[f64; 3]| {
         let l = total(&with(v));
         if l.is_finite() { -l } else { f64::INFINITY }
@@ -223,7 +212,7 @@ mod tests {
 
     #[test]
     fn the_likelihood_is_the_gaussian_of_the_first_innovation() {
-        let params = CvSmootherParams { gate: None, ..CvSmootherParams::default() };
+        let params = CvParams { gate: None, ..CvParams::default() };
         let z = 0.03;
         let s = params.p0_diag[0] + params.r_m2;
         let expected = -0.5 * ((std::f64::consts::TAU * s).ln() + z * z / s);
@@ -237,7 +226,7 @@ mod tests {
         let (q, r) = ([1e-9, 1e-4], 2.5e-7);
         let samples = simulated(q, r, 6000, 3);
         // Start a decade or more away from each.
-        let start = CvSmootherParams {
+        let start = CvParams {
             q_position_m2_per_s: 1e-7,
             q_velocity_m2_per_s3: 1e-6,
             r_m2: 1e-5,
@@ -258,12 +247,7 @@ mod tests {
         assert!(
             tuned.log_likelihood
                 >= log_likelihood(
-                    &CvSmootherParams {
-                        q_position_m2_per_s: q[0],
-                        q_velocity_m2_per_s3: q[1],
-                        r_m2: r,
-                        ..start
-                    },
+                    &CvParams { q_position_m2_per_s: q[0], q_velocity_m2_per_s3: q[1], r_m2: r, ..start },
                     &samples
                 ) - 1e-6
         );
@@ -281,7 +265,7 @@ mod tests {
             .map(|(&n, seed)| simulated(q, r, n, seed))
             .collect();
         let slices: Vec<&[CvSample]> = sequences.iter().map(Vec::as_slice).collect();
-        let start = CvSmootherParams {
+        let start = CvParams {
             q_position_m2_per_s: 1e-7,
             q_velocity_m2_per_s3: 1e-6,
             r_m2: 1e-5,
@@ -289,7 +273,7 @@ mod tests {
         };
         let joint = tune_noise_jointly(&start, &slices);
         let p = &joint.params;
-        let q_v_error = |p: &CvSmootherParams| (p.q_velocity_m2_per_s3 / q[1]).ln().abs();
+        let q_v_error = |p: &CvParams| (p.q_velocity_m2_per_s3 / q[1]).ln().abs();
         assert!((p.r_m2 / r - 1.0).abs() < 0.15, "R {} vs {r}", p.r_m2);
         assert!(q_v_error(p) < 0.3_f64.ln_1p(), "q_v {} vs {}", p.q_velocity_m2_per_s3, q[1]);
         assert_eq!(joint.measurements, 5040);
@@ -318,7 +302,7 @@ mod tests {
             s.z_m = s.z_m.map(|z| z + 0.02);
         }
         let gate = crate::rts::Gate::at(25.0);
-        let start = CvSmootherParams { gate: Some(gate), ..Default::default() };
+        let start = CvParams { gate: Some(gate), ..Default::default() };
         let tuned = tune_noise(&start, &samples);
         assert!((tuned.params.r_m2 / r - 1.0).abs() < 0.3, "R {} vs {r}", tuned.params.r_m2);
     }
