@@ -15,9 +15,9 @@
 //! (for ReLU, wherever it zeroed its input). The activation is dispatched
 //! once per layer, outside the inner loops.
 
-use super::mlp::activate_vector;
 use std::ops::Range;
 
+use super::mlp::activate_vector;
 use super::params::{Activation, Layer, LinearAt, NetAt};
 
 /// A linear layer with `width` outputs: one weight column per input.
