@@ -1,12 +1,17 @@
 #!/usr/bin/env python3
 """An independent PyTorch implementation of the dEKF's training (thesis
 Sec. 2.5.3 and 6.2.4), written from docs/model-format.md and the thesis, to
-compare with `slidetrack train`. Not run by CI; needs `torch`, `numpy` and
-`mcap` (for example in a venv outside the repository:
-`python3 -m venv /tmp/torchenv && /tmp/torchenv/bin/pip install torch numpy mcap zstandard lz4`).
+compare with `slidetrack train`. Needs `torch`, `numpy` and `mcap`
+(`scripts/setup.sh --test` installs them into target/pyenv).
 
     dekf_torch_train.py --train S1.mcap S2.mcap ... --out model.safetensors --seed 1
     slidetrack eval --model model.safetensors TEST.mcap ...
+    dekf_torch_train.py --check-golden tests/golden/dekf.json
+
+The last loads the golden file's models (tests/golden/, any architecture)
+into this script's own modules and runs its own networks and filter on the
+file's inputs, printing the largest differences from the file's outputs;
+`cargo test` (tests/dekf_golden.rs) runs it.
 
 It reads labelled sessions (`/tactile/zeroed`, `/ground_truth/sliding`,
 `/protocol/events`, the `taxel_layout` channel metadata), makes the
@@ -17,8 +22,8 @@ eq. 2.149, no clipping), and writes the documented model file, so that
 `slidetrack eval` scores it exactly as it scores its own models.
 
 Everything here is plain PyTorch autograd: the Jacobians of NN1 and NN2
-come from forward-mode tangents carried through the network (exact for
-ReLU networks), and autograd differentiates through them.
+come from forward-mode tangents carried through the network (each scaled
+by its activation's slope), and autograd differentiates through them.
 """
 import argparse
 import json
@@ -153,11 +158,11 @@ class Encoder(nn.Module):
 
 
 class Shared(nn.Module):
-    def __init__(self, h=64):
+    def __init__(self, h=64, blocks=3, d=1):
         super().__init__()
         self.linear = nn.Linear(h, h)
-        self.residual = nn.ModuleList([Residual(h) for _ in range(3)])
-        self.out = nn.Linear(h, 1)
+        self.residual = nn.ModuleList([Residual(h) for _ in range(blocks)])
+        self.out = nn.Linear(h, d)
 
 
 def lin(layer, X, bias_rows):
@@ -168,27 +173,53 @@ def lin(layer, X, bias_rows):
     return torch.addmm(bias_rows * layer.bias, X, layer.weight.T)
 
 
-def relu(X, b, extra=None):
-    """ReLU on stacked rows: the tangents take the mask of the `b` values."""
+GELU_C = math.sqrt(2.0 / math.pi)
+GELU_K = 0.044715
+
+
+def _gelu_slope(v):
+    """The derivative of GELU's tanh approximation."""
+    t = torch.tanh(GELU_C * (v + GELU_K * v**3))
+    return 0.5 * (1.0 + t) + 0.5 * v * (1.0 - t * t) * GELU_C * (1.0 + 3.0 * GELU_K * v * v)
+
+
+# docs/model-format.md's activations: (value, slope), both differentiable.
+SMOOTH = {
+    "tanh": (torch.tanh, lambda v: 1.0 - torch.tanh(v) ** 2),
+    "gelu": (lambda v: nn.functional.gelu(v, approximate="tanh"), _gelu_slope),
+}
+
+
+def activate(X, b, activation="relu", extra=None):
+    """The activation on stacked rows: the `b` value rows take it, the
+    tangent rows are scaled by its slope at the values (ReLU: their mask)."""
     pre = X if extra is None else X + extra
+    if activation == "relu":
+        if pre.shape[0] == b:
+            return torch.relu(pre)
+        mask = (pre[:b] > 0).to(X.dtype)
+        return pre * mask.repeat(X.shape[0] // b, 1)
+    value, slope = SMOOTH[activation]
     if pre.shape[0] == b:
-        return torch.relu(pre)
-    mask = (pre[:b] > 0).to(X.dtype)
-    return pre * mask.repeat(X.shape[0] // b, 1)
+        return value(pre)
+    v = pre[:b]
+    return torch.cat([value(v), pre[b:] * slope(v).repeat(X.shape[0] // b - 1, 1)])
 
 
 class Net(nn.Module):
-    """docs/model-format.md's network; forward() with tangents returns the
-    value and the Jacobian with respect to the input."""
+    """docs/model-format.md's network (the thesis's by default); forward()
+    with tangents returns the value and the Jacobian with respect to the
+    input ([B] and [B, I] for one output, [B, D] and [B, D, I] for D)."""
 
-    def __init__(self, i, h=64):
+    def __init__(self, i, h=64, blocks=3, activation="relu", d=1):
         super().__init__()
         self.encoder = Encoder(i, h)
-        self.shared = Shared(h)
+        self.shared = Shared(h, blocks, d)
+        self.activation = activation
 
     def block(self, r, H, b, rows):
-        a = relu(lin(r.fc1, H, rows), b)
-        return relu(lin(r.fc2, a, rows), b, extra=H)
+        a = activate(lin(r.fc1, H, rows), b, self.activation)
+        return activate(lin(r.fc2, a, rows), b, self.activation, extra=H)
 
     def forward(self, x, jacobian=False):
         b, i = x.shape
@@ -200,37 +231,51 @@ class Net(nn.Module):
             rows[:b] = 1.0
         else:
             X, rows = x, None
-        H = relu(lin(self.encoder.linear, X, rows), b)
+        H = activate(lin(self.encoder.linear, X, rows), b, self.activation)
         H = self.block(self.encoder.residual, H, b, rows)
         H = lin(self.shared.linear, H, rows)
         for r in self.shared.residual:
             H = self.block(r, H, b, rows)
-        Y = lin(self.shared.out, H, rows)[:, 0]
+        Y = lin(self.shared.out, H, rows)
+        d = Y.shape[1]
+        if d == 1:
+            Y = Y[:, 0]
         if not jacobian:
             return Y
-        return Y[:b], Y[b:].reshape(i, b).T
+        if d == 1:
+            return Y[:b], Y[b:].reshape(i, b).T
+        return Y[:b], Y[b:].reshape(i, b, d).permute(1, 2, 0)
+
+
+THESIS_ARCHITECTURE = {"width": 64, "residual_blocks": 3, "activation": "relu"}
 
 
 class Dekf(nn.Module):
-    def __init__(self, channels, lq_init, lr_init):
+    """The model of docs/model-format.md: `d` degrees of freedom (1: the
+    thesis's sliding state), networks of `arch` (the thesis's by default)."""
+
+    def __init__(self, channels, lq_init, lr_init, arch=None, d=1):
         super().__init__()
-        self.motion = Net(2)
-        self.measurement = Net(2)
-        self.feature = Net(channels)
+        a = arch or THESIS_ARCHITECTURE
+        net = lambda i: Net(i, a["width"], a["residual_blocks"], a["activation"], d)
+        self.motion = net(2 * d)
+        self.measurement = net(2 * d)
+        self.feature = net(channels)
         self.register_buffer("input_mean", torch.zeros(channels))
         self.register_buffer("input_std", torch.ones(channels))
         self.lq = nn.Parameter(torch.tensor(lq_init, dtype=torch.float32))
-        self.lr = nn.Parameter(torch.tensor([[lr_init]], dtype=torch.float32))
+        self.lr = nn.Parameter(torch.tensor(lr_init, dtype=torch.float32))
 
     def noise(self):
         L = torch.tril(self.lq)
         return L @ L.T, (self.lr @ self.lr.T)[0, 0]
 
 
-def run_filter(model, mu, P, meas, valid, dt, steps):
+def run_filter(model, mu, P, meas, valid, dt, steps, covariances=None):
     """The dEKF over `steps` steps from (mu, P) [B,2], [B,2,2] with the
     normalised measurements meas [steps, B, C]; returns the corrected means
-    [steps, B, 2]."""
+    [steps, B, 2] (and appends the covariances [B,2,2] to `covariances`
+    when it is a list)."""
     Q, R = model.noise()
     out = []
     B = mu.shape[0]
@@ -257,6 +302,8 @@ def run_filter(model, mu, P, meas, valid, dt, steps):
         mu = torch.where(ok, mu_c, mu)
         P = torch.where(ok.unsqueeze(2), P_c, P)
         out.append(mu)
+        if covariances is not None:
+            covariances.append(P)
     return torch.stack(out)
 
 
@@ -289,6 +336,80 @@ def save(model, path, meta):
         f.write(struct.pack("<Q", len(h)) + h + b"".join(blobs))
 
 
+def load(path):
+    """A model file written by slidetrack (docs/model-format.md) as a Dekf
+    module, loaded strictly (every tensor named and shaped as this module's
+    own), and its metadata."""
+    with open(path, "rb") as f:
+        raw = f.read()
+    (n,) = struct.unpack("<Q", raw[:8])
+    header = json.loads(raw[8 : 8 + n])
+    data = raw[8 + n :]
+    info = header.pop("__metadata__", {})
+    meta = json.loads(info["slidetrack.dekf"])
+    arch = json.loads(info.get("slidetrack.dekf.architecture", json.dumps(THESIS_ARCHITECTURE)))
+    d = 1 if meta.get("state", "sliding") == "sliding" else 3
+    tensors = {}
+    for name, h in header.items():
+        start, end = h["data_offsets"]
+        tensors[name] = torch.from_numpy(np.frombuffer(data[start:end], dtype="<f4").reshape(h["shape"]).copy())
+    zeros = lambda k: [[0.0] * k for _ in range(k)]
+    model = Dekf(tensors["feature.input_mean"].shape[0], zeros(2 * d), zeros(d), arch, d)
+    names = {
+        "feature.input_mean": "input_mean",
+        "feature.input_std": "input_std",
+        "process_noise.cholesky": "lq",
+        "measurement_noise.cholesky": "lr",
+    }
+    model.load_state_dict({names.get(k, k): v for k, v in tensors.items()})
+    return model, meta
+
+
+def check_golden(path):
+    """Runs this script's own networks (Net) and filter (run_filter, the
+    thesis's sliding filter: planar models have their networks checked only)
+    on every model of the golden file (tests/golden/, docs/model-format.md)
+    in float32, as it trains; prints JSON with the largest differences from
+    the file's outputs (relative to max(|expected|, 1); the covariance to
+    its largest element)."""
+    golden = json.load(open(path))
+    worst = lambda got, want, floor: float(
+        (np.abs(got - want) / np.maximum(np.abs(want), floor)).max()
+    )
+    report = []
+    with torch.no_grad():
+        for entry in golden["models"]:
+            model, meta = load(os.path.join(os.path.dirname(path), entry["file"]))
+            network = 0.0
+            for name, probes in entry["networks"].items():
+                net = getattr(model, name)
+                for probe in probes:
+                    x = torch.tensor([probe["input"]], dtype=torch.float32)
+                    jacobian = "jacobian" in probe
+                    y = net(x, jacobian=jacobian)
+                    got = [y[0][0], y[1][0]] if jacobian else [y[0]]
+                    want = [probe["output"]] + ([probe["jacobian"]] if jacobian else [])
+                    for g, w in zip(got, want):
+                        network = max(network, worst(g.double().numpy().ravel(), np.array(w).ravel(), 1.0))
+            row = {"name": entry["name"], "network": network, "mean": None, "covariance": None}
+            if meta.get("state", "sliding") == "sliding":
+                f = entry["filter"]
+                m = torch.tensor([[np.nan if v is None else v for v in z] for z in f["measurements"]], dtype=torch.float32)
+                valid = torch.isfinite(m).all(1).unsqueeze(1)
+                meas = ((m - model.input_mean) / model.input_std).unsqueeze(1)
+                P0 = torch.diag(torch.tensor(meta["p0_diag"], dtype=torch.float32)).unsqueeze(0)
+                covs = []
+                means = run_filter(model, torch.zeros(1, 2), P0, meas, valid, meta["dt_s"], len(m), covs)
+                want_cov = np.array(f["cov"])
+                row["mean"] = worst(means[:, 0].double().numpy(), np.array(f["mean"]), 1.0)
+                row["covariance"] = max(
+                    worst(c[0].double().numpy().ravel(), w, float(np.abs(w).max()))
+                    for c, w in zip(covs, want_cov)
+                )
+            report.append(row)
+    print(json.dumps({"torch": torch.__version__, "models": report}))
+
+
 # ---------------------------------------------------------------- training
 
 
@@ -298,8 +419,9 @@ def windows_of(lengths, L):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--train", nargs="+", required=True)
-    ap.add_argument("--out", required=True)
+    ap.add_argument("--check-golden", metavar="JSON", help="check the network and filter against the golden file and exit")
+    ap.add_argument("--train", nargs="+")
+    ap.add_argument("--out")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--schedule", default="2:5,4:5,8:5,16:5,32:5")
     ap.add_argument("--batch", type=int, default=32)
@@ -311,6 +433,11 @@ def main():
     ap.add_argument("--cache", default="/tmp/dekf_torch_cache")
     ap.add_argument("--threads", type=int, default=1)
     args = ap.parse_args()
+    if args.check_golden:
+        check_golden(args.check_golden)
+        return
+    if not (args.train and args.out):
+        ap.error("--train and --out are required (or --check-golden)")
 
     torch.set_num_threads(args.threads)
     torch.manual_seed(args.seed)
@@ -324,7 +451,7 @@ def main():
     std[std == 0] = 1.0
     C = allm.shape[1]
     lq = [float(v) for v in args.lq_init.split(",")]
-    model = Dekf(C, [[lq[0], lq[1]], [lq[2], lq[3]]], args.lr_init)
+    model = Dekf(C, [[lq[0], lq[1]], [lq[2], lq[3]]], [[args.lr_init]])
     model.input_mean.copy_(torch.tensor(mean, dtype=torch.float32))
     model.input_std.copy_(torch.tensor(std, dtype=torch.float32))
     meas = [torch.tensor((m - mean) / std, dtype=torch.float32) for m in raw]

@@ -1,6 +1,7 @@
 """An independent implementation of docs/model-format.md in NumPy.
 
 Usage: dekf_reference.py MODEL.safetensors REPLAY.mcap
+       dekf_reference.py --check-golden tests/golden/dekf.json
 
 Loads the model file (with the architecture and the state its metadata
 describes; the thesis's when it says none), reads /tactile/derivative and the
@@ -8,13 +9,17 @@ estimates (/estimate/dekf of a sliding model, /estimate/dekf_planar of a
 planar one) from a session written by `slidetrack replay`, runs the filter of
 the document on the recorded measurements and prints JSON with the largest
 relative differences between its estimates and the recorded ones.
+
+With --check-golden it runs the same networks and filter on the golden
+file's models and inputs (tests/golden/, docs/model-format.md "The golden
+file") and prints JSON with the largest differences from its outputs.
 """
 import json
+import os
 import struct
 import sys
 
 import numpy as np
-from mcap.reader import make_reader
 
 
 def load_safetensors(path):
@@ -125,21 +130,107 @@ def recorded_state(state, payload):
     return mean, np.array(payload["covariance"]).reshape(6, 6)
 
 
+class Model:
+    """A model file: its three networks, normalisation, noise and filter."""
+
+    def __init__(self, path):
+        t, meta = load_safetensors(path)
+        self.meta = json.loads(meta["slidetrack.dekf"])
+        self.arch = json.loads(meta[ARCHITECTURE_KEY]) if ARCHITECTURE_KEY in meta else THESIS_ARCHITECTURE
+        self.nets = {name: Net(t, name, self.arch) for name in ("motion", "measurement", "feature")}
+        self.mean_in, self.std_in = t["feature.input_mean"], t["feature.input_std"]
+        self.state = self.meta.get("state", "sliding")
+        self.d = 1 if self.state == "sliding" else 3
+        self.n = 2 * self.d
+        lq = np.tril(t["process_noise.cholesky"].astype(np.float64))
+        self.Q = lq @ lq.T
+        lr = np.tril(t["measurement_noise.cholesky"].astype(np.float64))
+        self.R = lr @ lr.T
+        self.dt = self.meta["dt_s"]
+
+    def initial(self):
+        """mu0 and P0."""
+        return np.zeros(self.n), np.diag(self.meta["p0_diag"]).astype(np.float64)
+
+    def step(self, mu, P, meas):
+        """One filter step (docs/model-format.md, "The filter") with the
+        unnormalised measurement `meas`; returns (mu, P, corrected)."""
+        n, d, dt = self.n, self.d, self.dt
+        a, J1 = self.nets["motion"].forward(mu, True)
+        F = np.eye(n)
+        F[:d, d:] = dt * np.eye(d)
+        F[d:, :] += J1
+        mu = np.concatenate([mu[:d] + mu[d:] * dt, mu[d:] + a])
+        P = F @ P @ F.T + self.Q
+        if not np.all(np.isfinite(meas)):
+            return mu, P, False
+        z, _ = self.nets["feature"].forward(((meas.astype(np.float32) - self.mean_in) / self.std_in), False)
+        zhat, H = self.nets["measurement"].forward(mu, True)
+        S = H @ P @ H.T + self.R
+        if not np.all(np.linalg.eigvalsh(S) > 1e-12):
+            return mu, P, False
+        K = P @ H.T @ np.linalg.inv(S)
+        mu = mu + K @ (z - zhat)
+        A = np.eye(n) - K @ H
+        return mu, A @ P @ A.T + K @ self.R @ K.T, True
+
+
+def worst(got, want, floor):
+    """The largest |got - want| / max(|want|, floor)."""
+    got, want = np.asarray(got, dtype=np.float64).ravel(), np.asarray(want, dtype=np.float64).ravel()
+    assert got.shape == want.shape, (got.shape, want.shape)
+    return float(np.max(np.abs(got - want) / np.maximum(np.abs(want), floor)))
+
+
+def check_golden(path):
+    """Runs the networks and the filter on every model of the golden file;
+    prints the largest differences (relative to max(|expected|, 1); the
+    covariance to its largest element)."""
+    golden = json.load(open(path))
+    report = []
+    for entry in golden["models"]:
+        model = Model(os.path.join(os.path.dirname(path), entry["file"]))
+        assert model.arch == entry["architecture"], (model.arch, entry["architecture"])
+        network = 0.0
+        for name, probes in entry["networks"].items():
+            for probe in probes:
+                jacobian = "jacobian" in probe
+                y, J = model.nets[name].forward(probe["input"], jacobian)
+                network = max(network, worst(y, probe["output"], 1.0))
+                if jacobian:
+                    network = max(network, worst(J, probe["jacobian"], 1.0))
+        f = entry["filter"]
+        mu, P = model.initial()
+        mean = cov = 0.0
+        corrected = []
+        for k, meas in enumerate(f["measurements"]):
+            meas = np.array([np.nan if v is None else v for v in meas], dtype=np.float64)
+            mu, P, ok = model.step(mu, P, meas)
+            corrected.append(ok)
+            mean = max(mean, worst(mu, f["mean"][k], 1.0))
+            want = np.array(f["cov"][k])
+            cov = max(cov, worst(P, want, float(np.max(np.abs(want)))))
+        report.append(
+            {
+                "name": entry["name"],
+                "network": network,
+                "mean": mean,
+                "covariance": cov,
+                "corrected_as_golden": corrected == f["corrected"],
+            }
+        )
+    print(json.dumps({"models": report}))
+
+
 def main():
+    if sys.argv[1] == "--check-golden":
+        check_golden(sys.argv[2])
+        return
+    from mcap.reader import make_reader
+
     model_path, replay_path = sys.argv[1], sys.argv[2]
-    t, meta = load_safetensors(model_path)
-    m = json.loads(meta["slidetrack.dekf"])
-    arch = json.loads(meta[ARCHITECTURE_KEY]) if ARCHITECTURE_KEY in meta else THESIS_ARCHITECTURE
-    nn1, nn2, nn3 = (Net(t, name, arch) for name in ("motion", "measurement", "feature"))
-    mean_in, std_in = t["feature.input_mean"], t["feature.input_std"]
-    state = m.get("state", "sliding")
-    d = 1 if state == "sliding" else 3
-    n = 2 * d
-    lq = np.tril(t["process_noise.cholesky"].astype(np.float64))
-    Q = lq @ lq.T
-    lr = np.tril(t["measurement_noise.cholesky"].astype(np.float64))
-    R = lr @ lr.T
-    dt = m["dt_s"]
+    model = Model(model_path)
+    state, d = model.state, model.d
     topic = ESTIMATE_TOPIC[state]
 
     derivative, recorded = {}, []
@@ -152,40 +243,25 @@ def main():
                 recorded.append((message.log_time, payload))
 
     scale = np.array(FROM_SI[state])
-    mu = np.zeros(n)
-    P = np.diag(m["p0_diag"]).astype(np.float64)
-    worst = {"position": 0.0, "velocity": 0.0, "covariance": 0.0}
+    mu, P = model.initial()
+    worst_rel = {"position": 0.0, "velocity": 0.0, "covariance": 0.0}
     for k, (time, est) in enumerate(recorded):
         if k > 0:
-            a, J1 = nn1.forward(mu, True)
-            F = np.eye(n)
-            F[:d, d:] = dt * np.eye(d)
-            F[d:, :] += J1
-            mu = np.concatenate([mu[:d] + mu[d:] * dt, mu[d:] + a])
-            P = F @ P @ F.T + Q
-            meas = derivative[time]
-            if np.all(np.isfinite(meas)):
-                z, _ = nn3.forward(((meas.astype(np.float32) - mean_in) / std_in), False)
-                zhat, H = nn2.forward(mu, True)
-                S = H @ P @ H.T + R
-                if np.all(np.linalg.eigvalsh(S) > 1e-12):
-                    K = P @ H.T @ np.linalg.inv(S)
-                    mu = mu + K @ (z - zhat)
-                    A = np.eye(n) - K @ H
-                    P = A @ P @ A.T + K @ R @ K.T
+            mu, P, _ = model.step(mu, P, derivative[time])
         got_si, cov_si = recorded_state(state, est)
         got = got_si * scale
         cov = cov_si * np.outer(scale, scale)
         # Relative to the value, or to 0.01 (cm, cm/s; mm, deg) near zero: the
         # networks run in float32, whose roundings are ~1e-7 there.
         rel = lambda a, b: abs(a - b) / max(abs(b), 1e-2)
-        worst["position"] = max([worst["position"]] + [rel(mu[i], got[i]) for i in range(d)])
-        worst["velocity"] = max([worst["velocity"]] + [rel(mu[d + i], got[d + i]) for i in range(d)])
+        worst_rel["position"] = max([worst_rel["position"]] + [rel(mu[i], got[i]) for i in range(d)])
+        worst_rel["velocity"] = max([worst_rel["velocity"]] + [rel(mu[d + i], got[d + i]) for i in range(d)])
         # The covariance against its largest element: an off-diagonal element
         # near zero carries float32 roundings of the diagonal's scale.
         c_scale = max(float(np.max(np.abs(cov))), 1e-3)
-        worst["covariance"] = max(worst["covariance"], float(np.max(np.abs(P - cov))) / c_scale)
-    print(json.dumps({"steps": len(recorded), "architecture": arch, "state": state, "max_relative_difference": worst}))
+        worst_rel["covariance"] = max(worst_rel["covariance"], float(np.max(np.abs(P - cov))) / c_scale)
+    out = {"steps": len(recorded), "architecture": model.arch, "state": state, "max_relative_difference": worst_rel}
+    print(json.dumps(out))
 
 
 if __name__ == "__main__":

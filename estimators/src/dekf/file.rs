@@ -334,7 +334,7 @@ mod tests {
         let st = SafeTensors::deserialize(&bytes).unwrap();
         let t = st.tensor("feature.encoder.linear.weight").unwrap();
         assert_eq!(t.shape(), &[64, 2]);
-        let l = m.layout.feature.layers[0];
+        let l = *m.layout.feature.linears().next().unwrap();
         // Element [o=5, i=1] of the PyTorch weight.
         let at = (5 * 2 + 1) * 4;
         let v = f32::from_le_bytes(t.data()[at..at + 4].try_into().unwrap());

@@ -1,17 +1,24 @@
-//! Fast evaluation of one sample (the online path). A network's value is one
-//! forward pass; the gradient of its scalar output with respect to a
-//! two-dimensional input (the Jacobians `F` and `H` of the dEKF) is one
-//! reverse pass, cheaper than carrying two tangent columns forward. Weights
-//! are kept column by column (the parameters' own layout), so the forward
-//! product is a sum of scaled columns that the compiler vectorises and that
-//! skips the inputs an activation zeroed, and the reverse product is a dot
-//! product per column, skipped where the activation's slope is zero (for
-//! ReLU, wherever it zeroed its input). Any width, number of blocks and
-//! activation: the activation is dispatched once per layer, outside the
-//! inner loops, and every buffer is allocated when the network is built.
+//! Fast evaluation of one sample (the online path): the second executor of
+//! a network's list of layers ([`NetAt::layers`], the first being the
+//! batched pass of [`super::mlp`]). The list is compiled once, when the
+//! network is built, into steps that read and write slots of one buffer;
+//! every buffer is allocated then, none in a step.
+//!
+//! A network's value is one forward pass; the gradient of its scalar output
+//! with respect to a two-dimensional input (the Jacobians `F` and `H` of the
+//! dEKF) is one reverse pass over the same steps, cheaper than carrying two
+//! tangent columns forward. Weights are kept column by column (the
+//! parameters' own layout), so the forward product is a sum of scaled
+//! columns that the compiler vectorises and that skips the inputs an
+//! activation zeroed, and the reverse product is a dot product per column,
+//! skipped where the slope of the activation that made the input is zero
+//! (for ReLU, wherever it zeroed its input). The activation is dispatched
+//! once per layer, outside the inner loops.
+
+use std::ops::Range;
 
 use super::mlp::activate_vector;
-use super::params::{Activation, LinearAt, NetAt};
+use super::params::{Activation, Layer, LinearAt, NetAt};
 
 /// A linear layer with `width` outputs: one weight column per input.
 #[derive(Clone, Debug)]
@@ -27,6 +34,11 @@ impl Wide {
             columns: p[l.weight..l.weight + l.out * l.inp].to_vec(),
             bias: p[l.bias..l.bias + l.out].to_vec(),
         }
+    }
+
+    /// Number of outputs.
+    fn outputs(&self) -> usize {
+        self.bias.len()
     }
 
     /// `y = W x + b`.
@@ -87,121 +99,175 @@ fn scale(g: &mut [f32], slope: &[f32]) {
     }
 }
 
-/// One network (Sec. 6.1.6) with scratch space for a forward and a reverse pass.
-///
-/// The activations are kept in slots of `width` values: 0 `h0` (encoder),
-/// 1 and 2 the encoder's residual block (`a`, output), 3 `shared.linear`'s
-/// output (no activation), then `a` and output of every shared block.
+/// Where a step reads its input.
 #[derive(Clone, Debug)]
-pub struct FastNet {
-    width: usize,
-    activation: Activation,
-    encoder: Wide,
-    /// `(fc1, fc2)` of every residual block, the encoder's first.
-    blocks: Vec<(Wide, Wide)>,
-    shared: Wide,
-    /// The output layer `Linear(width, 1)`: weights and bias.
-    out_weight: Vec<f32>,
-    out_bias: f32,
-    /// Activation values by slot.
-    values: Vec<f32>,
-    /// The activation's slope at every value (slot 3: unused).
-    slopes: Vec<f32>,
-    /// Gradient scratch: four vectors of `width`.
-    scratch: Vec<f32>,
+enum Source {
+    /// The network's input.
+    Input,
+    /// A slot of the value buffer.
+    Slot {
+        /// Its place in the buffer.
+        at: Range<usize>,
+        /// True when an activation wrote it, so that its slopes are kept
+        /// (at the same place in the slope buffer).
+        activated: bool,
+    },
 }
 
-/// The slots of block `k`: its input, its `a` and its output.
-fn slots(k: usize) -> (usize, usize, usize) {
-    match k {
-        0 => (0, 1, 2),
-        1 => (3, 4, 5),
-        k => (2 + 2 * k - 1, 2 + 2 * k, 3 + 2 * k),
+/// One layer of the network, compiled.
+#[derive(Clone, Debug)]
+enum Step {
+    /// A linear layer writing slot `to`.
+    Linear { layer: Wide, from: Source, to: Range<usize> },
+    /// An activation on slot `at`, in place, its slopes kept.
+    Activation { activation: Activation, at: Range<usize> },
+    /// A residual block on slot `from`: `a = act(fc1 h)` in slot `a`, the
+    /// output `act(fc2 a + h)` in the slot after it.
+    Residual {
+        fc1: Wide,
+        fc2: Wide,
+        activation: Activation,
+        from: Range<usize>,
+        from_activated: bool,
+        a: Range<usize>,
+    },
+    /// The last layer, with one output: `weight . h + bias`.
+    Output { weight: Vec<f32>, bias: f32, from: Range<usize> },
+}
+
+/// One network with one output and scratch space for a forward and a
+/// reverse pass: the steps of its layers, and a value and a slope buffer
+/// with a slot for every layer's output (an activation works in place).
+#[derive(Clone, Debug)]
+pub struct FastNet {
+    steps: Vec<Step>,
+    /// Activation values by slot.
+    values: Vec<f32>,
+    /// The activation's slope at every value of an activated slot.
+    slopes: Vec<f32>,
+    /// Gradient scratch: four vectors of the largest width.
+    scratch: Vec<f32>,
+    /// The largest width of a layer.
+    width: usize,
+}
+
+/// The slot `(at, activated)` of `from`, or `None` for the input.
+fn slot(from: &Source) -> Option<(&Range<usize>, bool)> {
+    match from {
+        Source::Input => None,
+        Source::Slot { at, activated } => Some((at, *activated)),
     }
 }
 
 impl FastNet {
-    /// Copies network `net` out of the flat parameters `p`.
+    /// Compiles network `net` (its layers, with the parameters `p`). The
+    /// last layer must be linear with one output and only linear layers may
+    /// read the network's input (as in every network of a sliding model).
     pub fn new(p: &[f32], net: &NetAt) -> FastNet {
-        let width = net.width();
-        let count = net.residual_count();
-        let blocks = (0..count)
-            .map(|k| {
-                let (a, b) = net.residual(k);
-                (Wide::new(p, a), Wide::new(p, b))
-            })
-            .collect();
-        let out = net.out();
-        let slots = 2 + 2 * count;
+        let (mut steps, mut len, mut width) = (Vec::with_capacity(net.layers.len()), 0, 0);
+        let mut current = Source::Input;
+        let mut new_slot = |n: usize| {
+            width = width.max(n);
+            len += n;
+            len - n..len
+        };
+        let last = net.layers.len() - 1;
+        for (i, layer) in net.layers.iter().enumerate() {
+            let slot_of = |current: &Source| match current {
+                Source::Slot { at, activated } => (at.clone(), *activated),
+                Source::Input => unreachable!("layer {i} reads the input: only a linear layer may"),
+            };
+            match layer {
+                Layer::Linear(l) if i == last => {
+                    assert_eq!(l.out, 1, "the fast path is for networks with one output");
+                    let from = slot_of(&current).0;
+                    // [1, inp] column-major: one weight per input, contiguous.
+                    steps.push(Step::Output {
+                        weight: p[l.weight..l.weight + l.inp].to_vec(),
+                        bias: p[l.bias],
+                        from,
+                    });
+                }
+                Layer::Linear(l) => {
+                    let to = new_slot(l.out);
+                    let from =
+                        std::mem::replace(&mut current, Source::Slot { at: to.clone(), activated: false });
+                    steps.push(Step::Linear { layer: Wide::new(p, l), from, to });
+                }
+                Layer::Activation(activation) => {
+                    let (at, _) = slot_of(&current);
+                    current = Source::Slot { at: at.clone(), activated: true };
+                    steps.push(Step::Activation { activation: *activation, at });
+                }
+                Layer::Residual { fc1, fc2, activation } => {
+                    let (from, from_activated) = slot_of(&current);
+                    let a = new_slot(fc1.out);
+                    let out = new_slot(fc2.out);
+                    current = Source::Slot { at: out, activated: true };
+                    let (fc1, fc2) = (Wide::new(p, fc1), Wide::new(p, fc2));
+                    steps.push(Step::Residual { fc1, fc2, activation: *activation, from, from_activated, a });
+                }
+            }
+        }
         FastNet {
-            width,
-            activation: net.activation,
-            encoder: Wide::new(p, net.encoder()),
-            blocks,
-            shared: Wide::new(p, net.shared_linear()),
-            // [1, width] column-major: one weight per input, contiguous.
-            out_weight: p[out.weight..out.weight + width].to_vec(),
-            out_bias: p[out.bias],
-            values: vec![0.0; slots * width],
-            slopes: vec![0.0; slots * width],
+            steps,
+            values: vec![0.0; len],
+            slopes: vec![0.0; len],
             scratch: vec![0.0; 4 * width],
+            width,
         }
-    }
-
-    /// The slot the output layer reads.
-    fn last_slot(&self) -> usize {
-        if self.blocks.len() == 1 { 3 } else { slots(self.blocks.len() - 1).2 }
-    }
-
-    /// Residual block `k` on its input slot: `a = act(A h)`, `s = act(B a + h)`.
-    fn residual(&mut self, k: usize) {
-        let w = self.width;
-        let (hin, a, _) = slots(k);
-        let (first, second) = &self.blocks[k];
-        let (lo, hi) = self.values.split_at_mut(a * w);
-        let h = &lo[hin * w..(hin + 1) * w];
-        let (av, sv) = hi.split_at_mut(w);
-        let sv = &mut sv[..w];
-        let slopes = &mut self.slopes[a * w..(a + 2) * w];
-        let (sa, ss) = slopes.split_at_mut(w);
-        first.forward(h, av);
-        activate_vector(self.activation, av, sa);
-        second.forward(av, sv);
-        for (si, hi) in sv.iter_mut().zip(h) {
-            *si += hi;
-        }
-        activate_vector(self.activation, sv, ss);
     }
 
     /// The network's output for `input`, keeping the activations.
     pub fn value(&mut self, input: &[f32]) -> f32 {
-        let w = self.width;
-        self.encoder.forward(input, &mut self.values[..w]);
-        activate_vector(self.activation, &mut self.values[..w], &mut self.slopes[..w]);
-        self.residual(0);
-        let (lo, hi) = self.values.split_at_mut(3 * w);
-        self.shared.forward(&lo[2 * w..], &mut hi[..w]);
-        for k in 1..self.blocks.len() {
-            self.residual(k);
+        let mut y = 0.0;
+        for step in &self.steps {
+            let values = &mut self.values;
+            match step {
+                Step::Linear { layer, from, to } => {
+                    let (lo, hi) = values.split_at_mut(to.start);
+                    let x = slot(from).map_or(input, |(at, _)| &lo[at.clone()]);
+                    layer.forward(x, &mut hi[..to.len()]);
+                }
+                Step::Activation { activation, at } => {
+                    activate_vector(*activation, &mut values[at.clone()], &mut self.slopes[at.clone()]);
+                }
+                Step::Residual { fc1, fc2, activation, from, a, .. } => {
+                    // a = act(fc1 h), s = act(fc2 a + h).
+                    let (lo, hi) = values.split_at_mut(a.start);
+                    let h = &lo[from.clone()];
+                    let (av, sv) = hi.split_at_mut(a.len());
+                    let sv = &mut sv[..fc2.outputs()];
+                    let slopes = &mut self.slopes[a.start..a.end + sv.len()];
+                    let (sa, ss) = slopes.split_at_mut(a.len());
+                    fc1.forward(h, av);
+                    activate_vector(*activation, av, sa);
+                    fc2.forward(av, sv);
+                    for (si, hi) in sv.iter_mut().zip(h) {
+                        *si += hi;
+                    }
+                    activate_vector(*activation, sv, ss);
+                }
+                Step::Output { weight, bias, from } => y = dot(weight, &values[from.clone()]) + bias,
+            }
         }
-        let last = self.last_slot();
-        dot(&self.out_weight, &self.values[last * w..(last + 1) * w]) + self.out_bias
+        y
     }
 
-    /// Reverse pass through residual block `k`: `g` holds the gradient at
-    /// its output on entry and at its input on return. The input's own
+    /// Reverse pass through a residual block: `g` holds the gradient at its
+    /// output on entry and at its input on return. The input's own
     /// activation slope (when the input is an activation's output) is not
     /// applied here; the dot products it would zero are skipped.
-    fn residual_back(&self, k: usize, g: &mut [f32], ga: &mut [f32], gh: &mut [f32]) {
-        let w = self.width;
-        let (hin, a, s) = slots(k);
-        let (first, second) = &self.blocks[k];
-        scale(g, &self.slopes[s * w..(s + 1) * w]);
-        second.backward_scaled(g, &self.slopes[a * w..(a + 1) * w], ga);
-        if hin == 3 {
-            first.backward(ga, gh);
+    fn residual_back(&self, step: &Step, g: &mut [f32], ga: &mut [f32], gh: &mut [f32]) {
+        let Step::Residual { fc1, fc2, from, from_activated, a, .. } = step else { return };
+        let s = a.end..a.end + g.len();
+        let (ga, gh) = (&mut ga[..a.len()], &mut gh[..from.len()]);
+        scale(g, &self.slopes[s]);
+        fc2.backward_scaled(g, &self.slopes[a.clone()], ga);
+        if *from_activated {
+            fc1.backward_where(ga, &self.slopes[from.clone()], gh);
         } else {
-            first.backward_where(ga, &self.slopes[hin * w..(hin + 1) * w], gh);
+            fc1.backward(ga, gh);
         }
         for (gi, x) in g.iter_mut().zip(gh.iter()) {
             *gi += x;
@@ -216,16 +282,32 @@ impl FastNet {
         let (g, rest) = scratch.split_at_mut(w);
         let (g1, rest) = rest.split_at_mut(w);
         let (ga, gh) = rest.split_at_mut(w);
-        g.copy_from_slice(&self.out_weight);
-        for k in (1..self.blocks.len()).rev() {
-            self.residual_back(k, g, ga, gh);
-        }
-        // Through shared.linear, into the encoder block's output (slot 2).
-        self.shared.backward_where(g, &self.slopes[2 * w..3 * w], g1);
-        self.residual_back(0, g1, ga, gh);
-        scale(g1, &self.slopes[..w]);
+        // The gradient at the current step's output: `cur[..n]`.
+        let (mut cur, mut other, mut n) = (g, g1, 0);
         let mut gx = [0.0; 2];
-        self.encoder.backward(g1, &mut gx);
+        for step in self.steps.iter().rev() {
+            match step {
+                Step::Output { weight, .. } => {
+                    n = weight.len();
+                    cur[..n].copy_from_slice(weight);
+                }
+                Step::Activation { at, .. } => scale(&mut cur[..n], &self.slopes[at.clone()]),
+                Step::Residual { .. } => self.residual_back(step, &mut cur[..n], ga, gh),
+                Step::Linear { layer, from, .. } => match slot(from) {
+                    None => layer.backward(&cur[..n], &mut gx),
+                    Some((at, activated)) => {
+                        let gx = &mut other[..at.len()];
+                        if activated {
+                            layer.backward_where(&cur[..n], &self.slopes[at.clone()], gx);
+                        } else {
+                            layer.backward(&cur[..n], gx);
+                        }
+                        n = at.len();
+                        std::mem::swap(&mut cur, &mut other);
+                    }
+                },
+            }
+        }
         self.scratch = scratch;
         (y, gx)
     }

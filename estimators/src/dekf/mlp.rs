@@ -18,14 +18,13 @@
 //! double backward treats it) and the term is not computed; for smooth
 //! activations (tanh, GELU) it is kept on the tape and added.
 //!
-//! Network (`B` shared residual blocks, the thesis's `B = 3`):
-//! `h0 = act(encoder.linear(x))`, `h1 = res(h0)`, `h2 = shared.linear(h1)`,
-//! `h3..h(B+2) = res(...)`, `y = shared.out(h(B+2))`, with
-//! `res(h) = act(fc2(act(fc1(h))) + h)`.
+//! The network is the ordered list of layers of [`NetAt::layers`] (its one
+//! description, in `params.rs`): [`forward`] runs it first to last and
+//! [`backward`] last to first.
 
 use nalgebra::{DMatrix, DMatrixView, Dyn, MatrixView};
 
-use super::params::{Activation, LinearAt, NetAt};
+use super::params::{Activation, Layer, LinearAt, NetAt};
 
 /// A matrix view with arbitrary strides.
 type Strided<'a> = MatrixView<'a, f32, Dyn, Dyn, Dyn, Dyn>;
@@ -222,16 +221,20 @@ fn activation_backward(d: &mut DMatrix<f32>, tape: &ActivationTape, cols: usize)
     }
 }
 
-/// Residual block `k` of `net` on `h` (see [`NetAt::residual`]):
-/// `act(fc2(act(fc1(h))) + h)`, recording its inputs and activations.
-fn residual(p: &[f32], net: &NetAt, k: usize, h: DMatrix<f32>, tape: &mut Tape) -> DMatrix<f32> {
-    let (fc1, fc2) = net.residual(k);
+/// The residual block `act(fc2(act(fc1(h))) + h)` on `h`, recording the
+/// inputs of its two linear layers and its two activations.
+fn residual(
+    p: &[f32],
+    (fc1, fc2, act): (&LinearAt, &LinearAt, Activation),
+    h: DMatrix<f32>,
+    tape: &mut Tape,
+) -> DMatrix<f32> {
     let c = tape.cols;
     let mut a = linear(p, fc1, &h, c);
-    let first = activate(net.activation, &mut a, c);
+    let first = activate(act, &mut a, c);
     let mut s = linear(p, fc2, &a, c);
     s += &h;
-    let second = activate(net.activation, &mut s, c);
+    let second = activate(act, &mut s, c);
     tape.inputs.push(h);
     tape.inputs.push(a);
     tape.activations.push(first);
@@ -239,8 +242,9 @@ fn residual(p: &[f32], net: &NetAt, k: usize, h: DMatrix<f32>, tape: &mut Tape) 
     s
 }
 
-/// Evaluates network `net` on `x` (`inp x n`, `cols` columns per sample).
-/// Returns the output (`1 x n`) and, when `keep` is true, the tape.
+/// Evaluates network `net` on `x` (`inputs x n`, `cols` columns per
+/// sample), its layers first to last. Returns the output (`outputs x n`)
+/// and, when `keep` is true, the tape.
 pub fn forward(
     p: &[f32],
     net: &NetAt,
@@ -248,25 +252,25 @@ pub fn forward(
     cols: usize,
     keep: bool,
 ) -> (DMatrix<f32>, Option<Tape>) {
-    let blocks = net.residual_count();
-    let mut tape = Tape {
-        inputs: Vec::with_capacity(net.layers.len()),
-        activations: Vec::with_capacity(1 + 2 * blocks),
-        cols,
-    };
-    let mut h = linear(p, net.encoder(), &x, cols);
-    tape.inputs.push(x);
-    tape.activations.push(activate(net.activation, &mut h, cols));
-    h = residual(p, net, 0, h, &mut tape);
-    let h2 = linear(p, net.shared_linear(), &h, cols);
-    tape.inputs.push(h);
-    h = h2;
-    for k in 1..blocks {
-        h = residual(p, net, k, h, &mut tape);
+    let linears = net.linears().count();
+    let mut tape =
+        Tape { inputs: Vec::with_capacity(linears), activations: Vec::with_capacity(linears), cols };
+    let mut h = x;
+    for layer in &net.layers {
+        h = match layer {
+            Layer::Linear(l) => {
+                let y = linear(p, l, &h, cols);
+                tape.inputs.push(h);
+                y
+            }
+            Layer::Activation(act) => {
+                tape.activations.push(activate(*act, &mut h, cols));
+                h
+            }
+            Layer::Residual { fc1, fc2, activation } => residual(p, (fc1, fc2, *activation), h, &mut tape),
+        };
     }
-    let y = linear(p, net.out(), &h, cols);
-    tape.inputs.push(h);
-    (y, keep.then_some(tape))
+    (h, keep.then_some(tape))
 }
 
 /// Accumulates `dW += dy x^T`, `db += sum of value columns of dy`, and
@@ -311,11 +315,12 @@ fn linear_backward(
     })
 }
 
-/// Backpropagates `dy` (`1 x n`, the loss gradient of every output column,
-/// values and tangents) through the network, accumulating parameter
-/// gradients into `g`. With `want_input`, returns the gradient with respect
-/// to the input (`inp x n`; the value columns are the loss's gradient with
-/// respect to the input `x`, second-order terms of the tangents included).
+/// Backpropagates `dy` (`outputs x n`, the loss gradient of every output
+/// column, values and tangents) through the network's layers, last to
+/// first, accumulating parameter gradients into `g`. With `want_input`,
+/// returns the gradient with respect to the input (`inputs x n`; the value
+/// columns are the loss's gradient with respect to the input `x`,
+/// second-order terms of the tangents included).
 pub fn backward(
     p: &[f32],
     g: &mut [f32],
@@ -325,29 +330,36 @@ pub fn backward(
     want_input: bool,
 ) -> Option<DMatrix<f32>> {
     let c = tape.cols;
-    let (inputs, acts) = (&tape.inputs, &tape.activations);
-    // inputs: [x, h0, a0, h1, (h, a) of shared block 1.., last h];
-    // activations: [encoder, (fc1, fc2) of every block].
-    let last = inputs.len() - 1;
-    let mut dh = linear_backward(p, g, net.out(), &inputs[last], dy, c, true).unwrap_or_default();
-    let block_backward = |g: &mut [f32], k: usize, mut dh: DMatrix<f32>| {
-        let (fc1, fc2) = net.residual(k);
-        let (hin, ain) = if k == 0 { (1, 2) } else { (2 + 2 * k, 3 + 2 * k) };
-        activation_backward(&mut dh, &acts[2 + 2 * k], c);
-        let mut da = linear_backward(p, g, fc2, &inputs[ain], &dh, c, true).unwrap_or_default();
-        activation_backward(&mut da, &acts[1 + 2 * k], c);
-        let dskip = linear_backward(p, g, fc1, &inputs[hin], &da, c, true).unwrap_or_default();
-        dh += dskip;
-        dh
-    };
-    for k in (1..net.residual_count()).rev() {
-        dh = block_backward(g, k, dh);
+    // The tape in the order it was written, read from its end.
+    let mut inputs = tape.inputs.iter().rev();
+    let mut acts = tape.activations.iter().rev();
+    let mut recorded = || inputs.next().expect("the tape of this network");
+    let mut d: Option<DMatrix<f32>> = None;
+    for (i, layer) in net.layers.iter().enumerate().rev() {
+        // The input's gradient of the first layer only when asked for.
+        let want_dx = i > 0 || want_input;
+        let dh = d.take();
+        d = match layer {
+            Layer::Linear(l) => linear_backward(p, g, l, recorded(), dh.as_ref().unwrap_or(dy), c, want_dx),
+            Layer::Activation(_) => {
+                let mut dh = dh.unwrap_or_else(|| dy.clone());
+                activation_backward(&mut dh, acts.next().expect("the tape of this network"), c);
+                Some(dh)
+            }
+            Layer::Residual { fc1, fc2, .. } => {
+                let mut dh = dh.unwrap_or_else(|| dy.clone());
+                let (second, first) = (acts.next(), acts.next());
+                let (ain, hin) = (recorded(), recorded());
+                activation_backward(&mut dh, second.expect("the tape of this network"), c);
+                let mut da = linear_backward(p, g, fc2, ain, &dh, c, true).unwrap_or_default();
+                activation_backward(&mut da, first.expect("the tape of this network"), c);
+                let dskip = linear_backward(p, g, fc1, hin, &da, c, true).unwrap_or_default();
+                dh += dskip;
+                Some(dh)
+            }
+        };
     }
-    // Through shared.linear (no activation) before the encoder's block.
-    dh = linear_backward(p, g, net.shared_linear(), &inputs[3], &dh, c, true).unwrap_or_default();
-    dh = block_backward(g, 0, dh);
-    activation_backward(&mut dh, &acts[0], c);
-    linear_backward(p, g, net.encoder(), &inputs[0], &dh, c, want_input)
+    d.filter(|_| want_input)
 }
 
 #[cfg(test)]
@@ -382,7 +394,7 @@ pub(crate) mod tests {
         // Larger biases than PyTorch's initialisation: activations away from
         // their linear region, so that the curvature terms matter.
         for net in [&layout.motion, &layout.measurement, &layout.feature] {
-            for l in &net.layers {
+            for l in net.linears() {
                 for b in &mut p[l.bias..l.bias + l.out] {
                     *b *= 3.0;
                 }
@@ -487,7 +499,7 @@ pub(crate) mod tests {
                     let (_, tape) = weighted(&p, net, &x, &w);
                     let mut g = vec![0.0f32; layout.len];
                     backward(&p, &mut g, net, &tape, &DMatrix::from_row_slice(1, 9, &w), false);
-                    for l in &net.layers {
+                    for l in net.linears() {
                         let weights = l.weight..l.weight + l.out * l.inp;
                         let biases = l.bias..l.bias + l.out;
                         for range in [weights, biases] {

@@ -26,4 +26,6 @@ pub use train::{
 };
 
 #[cfg(test)]
+mod golden;
+#[cfg(test)]
 mod tests;

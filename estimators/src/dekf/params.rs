@@ -135,49 +135,66 @@ pub struct LinearAt {
     pub inp: usize,
 }
 
-/// The linear layers of one network, in evaluation order:
-/// `encoder.linear`, `encoder.residual.fc1/fc2`, `shared.linear`,
-/// `shared.residual.{0..blocks}.fc1/fc2`, `shared.out` (11 for the thesis's
-/// three shared blocks), and its activation.
+/// One layer of a network, in evaluation order. A network is an ordered
+/// list of them ([`NetAt::layers`]), written once, in [`Layout::for_state`];
+/// the batched pass of training ([`super::mlp`]) and the fast online pass
+/// (`infer`) are two executors of that list.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layer {
+    /// `y = W x + b` (`torch.nn.Linear`).
+    Linear(LinearAt),
+    /// `y = act(x)`, elementwise.
+    Activation(Activation),
+    /// A residual block, `y = act(fc2(act(fc1(x))) + x)` (`fc1` and `fc2`
+    /// square, the width of `x`).
+    Residual {
+        /// The first linear layer.
+        fc1: LinearAt,
+        /// The second linear layer, whose output the input is added to.
+        fc2: LinearAt,
+        /// The nonlinearity after each of them.
+        activation: Activation,
+    },
+}
+
+/// One network: its layers in evaluation order (see [`Layout::for_state`]
+/// for the list of the thesis's networks).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NetAt {
-    /// The layers: `5 + 2 blocks` of them.
-    pub layers: Vec<LinearAt>,
-    /// The nonlinearity of every hidden layer.
-    pub activation: Activation,
+    /// The layers, first to last; the last is linear.
+    pub layers: Vec<Layer>,
 }
 
 impl NetAt {
-    /// `encoder.linear`.
-    pub fn encoder(&self) -> &LinearAt {
-        &self.layers[0]
+    /// Every linear layer in evaluation order, those of the residual blocks
+    /// included (`fc1` before `fc2`): the order of the model file's tensors.
+    pub fn linears(&self) -> impl Iterator<Item = &LinearAt> {
+        self.layers
+            .iter()
+            .flat_map(|layer| match layer {
+                Layer::Linear(l) => [Some(l), None],
+                Layer::Activation(_) => [None, None],
+                Layer::Residual { fc1, fc2, .. } => [Some(fc1), Some(fc2)],
+            })
+            .flatten()
     }
 
-    /// Residual blocks in evaluation order (the encoder's first, then the
-    /// shared ones): `(fc1, fc2)`.
-    pub fn residual(&self, k: usize) -> (&LinearAt, &LinearAt) {
-        let first = if k == 0 { 1 } else { 2 + 2 * k };
-        (&self.layers[first], &self.layers[first + 1])
-    }
-
-    /// Residual blocks, the encoder's included.
-    pub fn residual_count(&self) -> usize {
-        (self.layers.len() - 3) / 2
-    }
-
-    /// `shared.linear` (no activation after it).
-    pub fn shared_linear(&self) -> &LinearAt {
-        &self.layers[3]
-    }
-
-    /// `shared.out`, `[outputs, width]`.
+    /// The output layer (the last layer, `[outputs, width]`).
     pub fn out(&self) -> &LinearAt {
-        &self.layers[self.layers.len() - 1]
+        match self.layers.last() {
+            Some(Layer::Linear(l)) => l,
+            _ => unreachable!("a network ends with a linear layer"),
+        }
     }
 
-    /// The hidden width.
-    pub fn width(&self) -> usize {
-        self.layers[0].out
+    /// Size of the network's input.
+    pub fn inputs(&self) -> usize {
+        self.linears().next().map_or(0, |l| l.inp)
+    }
+
+    /// Size of the network's output.
+    pub fn outputs(&self) -> usize {
+        self.out().out
     }
 }
 
@@ -230,20 +247,40 @@ impl Builder {
         LinearAt { weight, bias, out, inp }
     }
 
+    /// Residual block `prefix` (`fc1`, `fc2`) of width `h`.
+    fn residual(&mut self, prefix: &str, h: usize, activation: Activation) -> Layer {
+        let fc1 = self.linear(&format!("{prefix}.fc1"), h, h);
+        let fc2 = self.linear(&format!("{prefix}.fc2"), h, h);
+        Layer::Residual { fc1, fc2, activation }
+    }
+
+    /// The network of Sec. 6.1.6, the one description of it: with `act`
+    /// the activation, `W` the width and `B` the residual blocks of `shared`,
+    ///
+    /// ```text
+    /// encoder.linear    Linear(inp, W)
+    ///                   act
+    /// encoder.residual  Residual(W)
+    /// shared.linear     Linear(W, W)          (no activation)
+    /// shared.residual.k Residual(W)           k = 0..B
+    /// shared.out        Linear(W, out)
+    /// ```
+    ///
+    /// Tensors are added in this order (the model file's and the flat
+    /// vector's), named `<name>.<layer>.weight` and `.bias`.
     fn net(&mut self, name: &str, inp: usize, out: usize, arch: &Architecture) -> NetAt {
-        let h = arch.width;
+        let (h, act) = (arch.width, arch.activation);
         let mut layers = vec![
-            self.linear(&format!("{name}.encoder.linear"), h, inp),
-            self.linear(&format!("{name}.encoder.residual.fc1"), h, h),
-            self.linear(&format!("{name}.encoder.residual.fc2"), h, h),
-            self.linear(&format!("{name}.shared.linear"), h, h),
+            Layer::Linear(self.linear(&format!("{name}.encoder.linear"), h, inp)),
+            Layer::Activation(act),
+            self.residual(&format!("{name}.encoder.residual"), h, act),
+            Layer::Linear(self.linear(&format!("{name}.shared.linear"), h, h)),
         ];
         for k in 0..arch.residual_blocks {
-            layers.push(self.linear(&format!("{name}.shared.residual.{k}.fc1"), h, h));
-            layers.push(self.linear(&format!("{name}.shared.residual.{k}.fc2"), h, h));
+            layers.push(self.residual(&format!("{name}.shared.residual.{k}"), h, act));
         }
-        layers.push(self.linear(&format!("{name}.shared.out"), out, h));
-        NetAt { layers, activation: arch.activation }
+        layers.push(Layer::Linear(self.linear(&format!("{name}.shared.out"), out, h)));
+        NetAt { layers }
     }
 }
 
@@ -304,7 +341,7 @@ impl Layout {
     pub fn init(&self, rng: &mut impl Rng) -> Vec<f32> {
         let mut p = vec![0.0f32; self.len];
         for net in [&self.motion, &self.measurement, &self.feature] {
-            for l in &net.layers {
+            for l in net.linears() {
                 let bound = 1.0 / (l.inp as f32).sqrt();
                 for v in &mut p[l.weight..l.weight + l.out * l.inp] {
                     *v = rng.random_range(-bound..bound);
@@ -385,19 +422,39 @@ mod tests {
         assert!(l.entry("motion.shared.residual.1.fc1.weight").is_none());
         assert_eq!(l.entry("measurement.shared.out.weight").unwrap().shape, vec![1, 12]);
         for net in [&l.motion, &l.measurement, &l.feature] {
-            assert_eq!(net.residual_count(), 2);
-            assert_eq!(net.activation, Activation::Tanh);
-            assert_eq!(net.width(), 12);
+            // Linear, act, the encoder's block, shared.linear, one block, out.
+            assert_eq!(net.layers.len(), 6);
+            assert_eq!(net.layers[1], Layer::Activation(Activation::Tanh));
+            assert!(net.layers.iter().all(|layer| match layer {
+                Layer::Residual { fc1, fc2, activation } =>
+                    *activation == Activation::Tanh
+                        && (fc1.out, fc1.inp, fc2.out, fc2.inp) == (12, 12, 12, 12),
+                _ => true,
+            }));
+            assert_eq!(net.linears().count(), 7);
+            assert_eq!(net.outputs(), 1);
         }
-        let names = |k: usize| {
-            let (a, b) = l.motion.residual(k);
-            let name = |at: &LinearAt| l.entries.iter().find(|e| e.offset == at.weight).unwrap().name.clone();
-            (name(a), name(b))
-        };
-        assert_eq!(names(0).0, "motion.encoder.residual.fc1.weight");
-        assert_eq!(names(1).1, "motion.shared.residual.0.fc2.weight");
+        assert_eq!((l.motion.inputs(), l.feature.inputs()), (2, 5));
+        // The linear layers come in the order of the file's tensors.
+        let weights: Vec<&str> = l
+            .motion
+            .linears()
+            .map(|at| l.entries.iter().find(|e| e.offset == at.weight).unwrap().name.as_str())
+            .collect();
+        assert_eq!(
+            weights,
+            [
+                "motion.encoder.linear.weight",
+                "motion.encoder.residual.fc1.weight",
+                "motion.encoder.residual.fc2.weight",
+                "motion.shared.linear.weight",
+                "motion.shared.residual.0.fc1.weight",
+                "motion.shared.residual.0.fc2.weight",
+                "motion.shared.out.weight",
+            ]
+        );
         let none = Layout::with_architecture(2, &Architecture { residual_blocks: 0, ..arch });
         assert_eq!(none.motion.layers.len(), 5);
-        assert_eq!(none.motion.residual_count(), 1);
+        assert_eq!(none.motion.linears().count(), 5);
     }
 }

@@ -6,6 +6,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::*;
+use crate::dekf::params::{Layer, LinearAt};
 use crate::derivative::DerivativeFilterConfig;
 
 fn meta(channels: usize) -> ModelMeta {
@@ -177,11 +178,17 @@ fn silence(model: &mut DekfModel, net: &crate::dekf::params::NetAt) {
 /// everywhere but at `x_i = -b_i`.
 fn make_linear(model: &mut DekfModel, net: &crate::dekf::params::NetAt, c: [f32; 2], b: [f32; 2]) {
     let p = &mut model.params;
-    for l in &net.layers {
+    for l in net.linears() {
         p[l.weight..l.weight + l.out * l.inp].iter_mut().for_each(|w| *w = 0.0);
         p[l.bias..l.bias + l.out].iter_mut().for_each(|w| *w = 0.0);
     }
-    let (enc, shared, out) = (*net.encoder(), *net.shared_linear(), *net.out());
+    // The linear layers outside residual blocks: encoder.linear, shared.linear, shared.out.
+    let plain: Vec<LinearAt> = net
+        .layers
+        .iter()
+        .filter_map(|layer| if let Layer::Linear(l) = layer { Some(*l) } else { None })
+        .collect();
+    let [enc, shared, out] = plain[..] else { panic!("three plain linear layers: {plain:?}") };
     let w = enc.out;
     for i in 0..2 {
         for (unit, sign) in [(2 * i, 1.0), (2 * i + 1, -1.0)] {
