@@ -25,5 +25,6 @@ pub mod rig_config;
 pub mod study;
 pub mod tracking;
 pub mod trial;
+pub mod vision;
 pub mod vision_inhand;
 pub mod vision_sim;

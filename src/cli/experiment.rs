@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use slidetrack_vision::TrackerKind;
+use slidetrack_experiment::vision::camera_vision::CameraVisionOptions;
+use slidetrack_experiment::vision::{Measurements, PoseReset, TrackerKind};
 
 use super::LiveArgs;
 
@@ -210,7 +211,7 @@ pub struct TrackArgs {
     /// measurement more than CM centimetres or DEG degrees from the estimate
     /// (as `vision track --pose-reset`).
     #[arg(long, value_name = "CM,DEG", value_parser = super::parse_pose_reset, requires = "vision")]
-    pub pose_reset: Option<slidetrack_vision::PoseReset>,
+    pub pose_reset: Option<PoseReset>,
 }
 
 /// Masks and poses of a vision tracker on a real camera.
@@ -238,6 +239,30 @@ impl From<VisionArg> for TrackerKind {
         match v {
             VisionArg::Maskukf => TrackerKind::MaskUkf,
             VisionArg::Roft => TrackerKind::Roft,
+        }
+    }
+}
+
+impl From<CameraMeasurementsArg> for Measurements {
+    fn from(arg: CameraMeasurementsArg) -> Measurements {
+        match arg {
+            CameraMeasurementsArg::Aruco => Measurements::Aruco,
+            CameraMeasurementsArg::External => Measurements::External,
+        }
+    }
+}
+
+impl TrackArgs {
+    /// The options of the `--vision` tracker `kind` on a camera.
+    pub fn camera_vision_options(&self, kind: VisionArg) -> CameraVisionOptions<'_> {
+        CameraVisionOptions {
+            kind: kind.into(),
+            model: self.vision_model.as_deref(),
+            model_scale: self.vision_model_scale,
+            measurements: self.vision_measurements.into(),
+            aruco_config: self.aruco_config.as_deref(),
+            external: self.external.config(),
+            pose_reset: self.pose_reset,
         }
     }
 }

@@ -1,9 +1,11 @@
 //! Arguments of `vision` and its subcommands.
 
 use std::path::PathBuf;
+use std::time::Duration;
 
 use clap::{Args, Subcommand, ValueEnum};
-use slidetrack_vision::PoseReset;
+use slidetrack_experiment::vision::input::InputOptions;
+use slidetrack_experiment::vision::{ExternalConfig, Measurements, PoseReset, TrackerKind, TrackerStart};
 
 /// Arguments of `vision`.
 #[derive(Debug, Args)]
@@ -248,10 +250,62 @@ pub struct VisionEvalArgs {
 
 impl TrackerArg {
     /// The library's kind.
-    pub fn kind(self) -> slidetrack_vision::TrackerKind {
+    pub fn kind(self) -> TrackerKind {
         match self {
-            TrackerArg::Maskukf => slidetrack_vision::TrackerKind::MaskUkf,
-            TrackerArg::Roft => slidetrack_vision::TrackerKind::Roft,
+            TrackerArg::Maskukf => TrackerKind::MaskUkf,
+            TrackerArg::Roft => TrackerKind::Roft,
+        }
+    }
+}
+
+impl From<MeasurementsArg> for Measurements {
+    fn from(arg: MeasurementsArg) -> Measurements {
+        match arg {
+            MeasurementsArg::Input => Measurements::Input,
+            MeasurementsArg::Network => Measurements::Network,
+            MeasurementsArg::Truth => Measurements::Truth,
+            MeasurementsArg::Aruco => Measurements::Aruco,
+            MeasurementsArg::External => Measurements::External,
+        }
+    }
+}
+
+impl From<InitArg> for TrackerStart {
+    fn from(arg: InitArg) -> TrackerStart {
+        match arg {
+            InitArg::Measurement => TrackerStart::Measurement,
+            InitArg::Truth => TrackerStart::Truth,
+            InitArg::Perturbed => TrackerStart::Perturbed,
+        }
+    }
+}
+
+impl ExternalArgs {
+    /// The external source's settings.
+    pub fn config(&self) -> ExternalConfig {
+        ExternalConfig {
+            listen: self.listen.clone(),
+            wait_for_result: (self.external_wait_ms > 0).then(|| Duration::from_millis(self.external_wait_ms)),
+            wait_for_client: (self.external_wait_client_ms > 0)
+                .then(|| Duration::from_millis(self.external_wait_client_ms)),
+            max_age_ns: self.external_max_age_ms.saturating_mul(1_000_000),
+            send_images: self.external_send_images,
+        }
+    }
+}
+
+impl VisionTrackArgs {
+    /// The model, measurements and start of the tracker.
+    pub fn input_options(&self) -> InputOptions<'_> {
+        InputOptions {
+            model: &self.model,
+            model_scale: self.model_scale,
+            object: self.object.as_deref(),
+            measurements: self.measurements.into(),
+            init: self.init.into(),
+            recover: self.recover,
+            aruco_config: self.aruco_config.as_deref(),
+            external: Some(self.external.config()),
         }
     }
 }

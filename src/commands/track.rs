@@ -19,10 +19,10 @@ use slidetrack_experiment::trial::{ExtensionFactory, prepare_out_dir, record_tri
 use slidetrack_experiment::vision_inhand::{InHandVision, InHandVisionConfig};
 use slidetrack_live::LiveServer;
 use slidetrack_sim::ObjectConfig;
-use slidetrack_vision::TrackerKind;
+use slidetrack_experiment::vision::TrackerKind;
+use slidetrack_experiment::vision::camera::StreamCounts;
+use slidetrack_experiment::vision::camera_vision::{self, CameraVision};
 
-use super::vision::camera_vision::{self, CameraVision};
-use super::vision::live_camera::StreamCounts;
 use crate::cli::{RigArg, TrackArgs};
 
 pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
@@ -68,11 +68,11 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         live: live.as_ref().map(LiveServer::tap),
     };
     let camera_config = match (kind, args.vision) {
-        (RigKind::Hw, Some(_)) => {
+        (RigKind::Hw, Some(v)) => {
             let path = args.run.config.as_deref().context(
                 "--vision on a hardware rig tracks the [rgbd] camera of the rig TOML: give --config RIG.toml",
             )?;
-            camera_vision::requirements(args, &rig, path)?;
+            camera_vision::requirements(&args.camera_vision_options(v), &rig, path)?;
             Some(path)
         }
         _ => None,
@@ -80,7 +80,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
     let setup = build_rig(kind, &spec)?;
     let camera_vision = match (camera_config, args.vision) {
         (Some(path), Some(v)) => {
-            Some(camera_vision::open(args, v.into(), &rig, path, Arc::clone(&setup.rig.clock))?)
+            Some(camera_vision::open(&args.camera_vision_options(v), &rig, path, Arc::clone(&setup.rig.clock))?)
         }
         _ => None,
     };
@@ -109,7 +109,7 @@ fn replay(args: &TrackArgs, model: &DekfModel, quiet: bool) -> Result<()> {
     // its in-hand scene rendered again from its truth.
     let camera_vision = match args.vision {
         Some(kind) if camera_vision::has_frames(input)? => {
-            Some(camera_vision::open_recorded(args, kind.into(), input)?)
+            Some(camera_vision::open_recorded(&args.camera_vision_options(kind), input)?)
         }
         Some(_) if !session.has_truth => bail!(
             "{}: --vision on a replay tracks the recorded RGB-D frames (/rgbd/*) or renders the in-hand \
