@@ -55,7 +55,7 @@ pub const ALLOWED_DEPENDENCIES: &[Rule] = &[
     rule("vision",      &["core", "render", "session", "estimators", "calibration"],       &["sim"]),
     rule("live",        &["core", "session"],                                              &[]),
     rule("experiment",  &["core", "render", "sim", "session", "drivers", "estimators",
-                          "control", "calibration", "vision"],                             &[]),
+                          "control", "calibration", "vision", "live"],                     &[]),
     rule("slidetrack",  &["core", "render", "sim", "session", "drivers", "estimators",
                           "control", "calibration", "vision", "live", "experiment"],       &[]),
 ];

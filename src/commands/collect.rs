@@ -4,12 +4,11 @@ use std::sync::atomic::Ordering;
 
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use slidetrack_control::AbortReason;
+use slidetrack_core::TimeNs;
+use slidetrack_experiment::live_view::LiveView;
 use slidetrack_experiment::rig::{RigKind, TrialSpec, build_rig};
-use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_experiment::trial::{TrialReport, prepare_out_dir, record_trial, session_file_name};
-use slidetrack_live::LiveServer;
-use slidetrack_sim::ObjectConfig;
+use slidetrack_experiment::trial_inputs::TrialInputs;
 
 use crate::cli::{CollectArgs, RigArg};
 
@@ -41,8 +40,7 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
              `slidetrack track --rig replay --session FILE` (or `slidetrack replay`)"
         ),
     };
-    let object = ObjectConfig::load(&args.run.object)?;
-    let rig = RigConfig::load(args.run.config.as_deref())?;
+    let TrialInputs { object, rig } = TrialInputs::load(&args.run.object, args.run.config.as_deref())?;
     prepare_out_dir(&args.out)?;
     // Before any device moves: an address that cannot serve stops here.
     let live = super::live::start(&args.run.live)?;
@@ -71,9 +69,9 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
             realtime: args.run.realtime,
             overwrite: args.run.overwrite,
             path,
-            live: live.as_ref().map(LiveServer::tap),
+            live: live.as_ref().map(LiveView::tap),
         };
-        let mut progress = |t: slidetrack_core::TimeNs| {
+        let mut progress = |t: TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
         };
         let report = record_trial(build_rig(kind, &spec)?, &spec, &stop, &mut progress)?;
@@ -88,7 +86,7 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
                 report.images_dropped
             );
         }
-        if let Some(AbortReason::Device(e)) = &report.outcome.abort {
+        if let Some(e) = report.device_error() {
             bar.finish_and_clear();
             let hand = match &report.outcome.release_error {
                 None => "the hand was released".to_string(),

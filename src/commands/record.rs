@@ -5,9 +5,9 @@ use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_experiment::record::{RecordEnd, record_devices};
 use slidetrack_experiment::rig::{HandUse, RigKind, TrialSpec, build_rig_with};
-use slidetrack_experiment::rig_config::RigConfig;
+use slidetrack_core::TimeNs;
 use slidetrack_experiment::trial::prepare_out_dir;
-use slidetrack_sim::ObjectConfig;
+use slidetrack_experiment::trial_inputs::TrialInputs;
 
 use crate::cli::{RecordArgs, RigArg};
 
@@ -22,8 +22,7 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         RigArg::Hw => RigKind::Hw,
         RigArg::Replay => bail!("record records live devices; a recorded session is already a recording"),
     };
-    let object = ObjectConfig::load(&args.object)?;
-    let rig = RigConfig::load(args.config.as_deref())?;
+    let TrialInputs { object, rig } = TrialInputs::load(&args.object, args.config.as_deref())?;
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         prepare_out_dir(dir)?;
     }
@@ -56,7 +55,7 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let mut progress = |t: slidetrack_core::TimeNs| {
+    let mut progress = |t: TimeNs| {
         let ms = (t.as_secs_f64() * 1e3) as u64;
         match args.duration {
             Some(_) => bar.set_position(ms.min(bar.length().unwrap_or(ms))),
