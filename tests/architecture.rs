@@ -8,14 +8,19 @@
 //!    its items through `crate::`, `super::`, `self::` (in `use`, nested
 //!    groups included, in code, in macro arguments), through a child module
 //!    or through a module brought in by `use`. A path ends at the file that
-//!    declares (or re-exports) the item. A cycle of such imports whose files
-//!    are not all in the same top-level module (`study` for
-//!    `experiment/src/study/tables.rs`) fails the test; the crate root only
-//!    declares modules, so its own imports are left out.
+//!    declares (or re-exports) the item. Any cycle of such imports fails the
+//!    test, inside one top-level module too (`study/mod.rs` and
+//!    `study/tables.rs` importing each other); the crate root only declares
+//!    modules, so its own imports are left out.
 //! 2. **Layering.** Each crate's `Cargo.toml` names only the slidetrack crates
 //!    that [`ALLOWED_DEPENDENCIES`] allows it.
+//! 3. **Short functions in the CLI.** No function of the `slidetrack`
+//!    binary's `src/` is longer than [`CLI_MAX_FUNCTION_LINES`]: it parses
+//!    arguments, converts them to the library's options and prints, and
+//!    what takes longer belongs in `experiment`.
 
 mod architecture {
+    pub mod function_length;
     pub mod graph;
     pub mod imports;
     pub mod layering;
@@ -30,9 +35,11 @@ use std::collections::BTreeSet;
 use std::path::Path;
 use std::time::Instant;
 
+use architecture::function_length::functions;
+use architecture::graph::CycleScope;
 use architecture::imports::check_workspace;
 use architecture::layering::{Rule, check_manifest, short_name};
-use architecture::sources::Workspace;
+use architecture::sources::{Sources, Workspace};
 
 /// The slidetrack crates each crate may depend on.
 ///
@@ -56,8 +63,10 @@ pub const ALLOWED_DEPENDENCIES: &[Rule] = &[
     rule("live",        &["core", "session"],                                              &[]),
     rule("experiment",  &["core", "render", "sim", "session", "drivers", "estimators",
                           "control", "calibration", "vision", "live"],                     &[]),
-    rule("slidetrack",  &["core", "render", "sim", "session", "drivers", "estimators",
-                          "control", "calibration", "vision", "live", "experiment"],       &[]),
+    // The CLI parses, converts and prints: its commands go through `experiment`.
+    // `drivers` and `sim` stay until `devices`, `emulate` and `decode` do too.
+    rule("slidetrack",  &["core", "sim", "session", "drivers", "experiment"],
+                        &["estimators", "vision", "live"]),
 ];
 
 /// One row of [`ALLOWED_DEPENDENCIES`].
@@ -78,7 +87,7 @@ fn workspace_root() -> &'static Path {
 fn no_import_cycles_between_modules() {
     let started = Instant::now();
     let workspace = Workspace::load(workspace_root());
-    let report = check_workspace(&workspace);
+    let report = check_workspace(&workspace, CycleScope::Everywhere);
     eprintln!(
         "architecture: {} files, {} crates checked in {:.2?}",
         workspace.texts.len(),
@@ -134,4 +143,35 @@ fn the_table_is_layered() {
             assert!(above, "`{}` may depend on `{dependency}`, which is not above it", rule.krate);
         }
     }
+}
+
+/// The longest a function of the CLI's `src/` may be, signature to closing
+/// brace (lines).
+pub const CLI_MAX_FUNCTION_LINES: usize = 60;
+
+/// Files of `src/` that the drivers' reorganisation (issue 25, done beside
+/// this check) rewrites: left out until it lands. Empty this list then.
+const REWRITTEN_ELSEWHERE: &[&str] = &["src/commands/decode.rs"];
+
+#[test]
+fn cli_functions_are_short() {
+    let workspace = Workspace::load(workspace_root());
+    let cli_sources = workspace.texts.iter().filter(|(path, _)| path.starts_with("src"));
+    let sources = Sources::parse(cli_sources);
+    assert!(sources.errors.is_empty(), "files that do not parse:\n{}", sources.errors.join("\n"));
+    let mut all: Vec<_> = sources.files.iter().flat_map(|(file, syntax)| functions(file, syntax)).collect();
+    assert!(all.len() > 50, "the check found only {} functions in src/", all.len());
+    all.sort_by_key(|f| std::cmp::Reverse(f.lines));
+    let long: Vec<String> = all
+        .iter()
+        .take_while(|f| f.lines > CLI_MAX_FUNCTION_LINES)
+        .filter(|f| !REWRITTEN_ELSEWHERE.iter().any(|w| f.file == Path::new(w)))
+        .map(|f| format!("  {}:{} `{}`: {} lines", f.file.display(), f.line, f.name, f.lines))
+        .collect();
+    eprintln!("longest function of src/: {} lines", all[0].lines);
+    assert!(
+        long.is_empty(),
+        "functions of src/ over {CLI_MAX_FUNCTION_LINES} lines (move what they assemble into `experiment`):\n{}",
+        long.join("\n")
+    );
 }

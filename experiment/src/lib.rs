@@ -1,6 +1,8 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+pub mod bench;
+pub mod camera_calibration;
 pub mod channels;
 pub mod dataset;
 pub mod dekf_eval;
@@ -10,7 +12,9 @@ pub mod dekf_train;
 pub mod emulate;
 pub mod grasp_eval;
 pub mod grasp_state;
+pub mod image_markers;
 pub mod import;
+pub mod labelling;
 pub mod linear_baseline;
 pub mod live_view;
 pub mod marker;
@@ -21,6 +25,7 @@ pub mod plot;
 pub mod protocol;
 pub mod record;
 pub mod replay;
+pub mod replay_file;
 pub mod rig;
 pub mod rig_config;
 pub mod study;

@@ -205,7 +205,9 @@ fn open_rig(
     };
     let setup = build_rig(kind, spec)?;
     let camera_vision = match camera_config {
-        Some((path, vision)) => Some(camera_vision::open(vision, spec.rig, path, Arc::clone(&setup.rig.clock))?),
+        Some((path, vision)) => {
+            Some(camera_vision::open(vision, spec.rig, path, Arc::clone(&setup.rig.clock))?)
+        }
         None => None,
     };
     let rate = setup.tactile_info.rate_hz;
@@ -231,7 +233,9 @@ fn replay_inputs(options: &TrackOptions<'_>, model: &DekfModel) -> Result<Inputs
     // and poses recorded beside them; a simulated session without them has
     // its in-hand scene rendered again from its truth.
     let camera_vision = match &options.vision {
-        Some(vision) if camera_vision::has_frames(input)? => Some(camera_vision::open_recorded(vision, input)?),
+        Some(vision) if camera_vision::has_frames(input)? => {
+            Some(camera_vision::open_recorded(vision, input)?)
+        }
         Some(_) if !session.has_truth => bail!(
             "{}: --vision on a replay tracks the recorded RGB-D frames (/rgbd/*) or renders the in-hand \
              scene from /sim/truth, and this session has neither",
@@ -278,9 +282,14 @@ fn in_hand_vision(kind: Option<TrackerKind>, spec: &TrialSpec<'_>) -> Result<Opt
     let (rig, object) = (spec.rig, spec.object);
     let g = &rig.geometry;
     let config = InHandVisionConfig::new(kind, spec.seed ^ u64::from(spec.trial));
-    let vision =
-        InHandVision::new(&config, &rig.camera, &object.geometry, g.object_start_in_hand_m, g.sliding_axis_in_hand)
-            .context("cannot set up the vision tracker")?;
+    let vision = InHandVision::new(
+        &config,
+        &rig.camera,
+        &object.geometry,
+        g.object_start_in_hand_m,
+        g.sliding_axis_in_hand,
+    )
+    .context("cannot set up the vision tracker")?;
     Ok(Some(vision))
 }
 

@@ -285,7 +285,8 @@ impl ExternalArgs {
     pub fn config(&self) -> ExternalConfig {
         ExternalConfig {
             listen: self.listen.clone(),
-            wait_for_result: (self.external_wait_ms > 0).then(|| Duration::from_millis(self.external_wait_ms)),
+            wait_for_result: (self.external_wait_ms > 0)
+                .then(|| Duration::from_millis(self.external_wait_ms)),
             wait_for_client: (self.external_wait_client_ms > 0)
                 .then(|| Duration::from_millis(self.external_wait_client_ms)),
             max_age_ns: self.external_max_age_ms.saturating_mul(1_000_000),

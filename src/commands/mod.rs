@@ -2,8 +2,6 @@
 
 mod aruco;
 mod bench;
-mod bench_dekf;
-mod bench_live;
 mod calibrate;
 mod collect;
 mod decode;

@@ -3,9 +3,9 @@
 
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use slidetrack_core::TimeNs;
 use slidetrack_experiment::record::{RecordEnd, record_devices};
 use slidetrack_experiment::rig::{HandUse, RigKind, TrialSpec, build_rig_with};
-use slidetrack_core::TimeNs;
 use slidetrack_experiment::trial::prepare_out_dir;
 use slidetrack_experiment::trial_inputs::TrialInputs;
 
@@ -40,21 +40,7 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         live: None,
     };
     let stop = super::stop_flag("closing the session (the hand is left as it is)");
-    let bar = match (quiet, args.duration) {
-        (true, _) => ProgressBar::hidden(),
-        (false, Some(d)) => ProgressBar::new((d * 1e3) as u64),
-        (false, None) => ProgressBar::new_spinner(),
-    };
-    let template = if args.duration.is_some() {
-        "recording [{bar:30}] {percent:>3}%, {elapsed} (Ctrl-C stops)"
-    } else {
-        "recording {spinner} {msg} (Ctrl-C stops)"
-    };
-    bar.set_style(
-        ProgressStyle::with_template(template)
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    let bar = progress_bar(args, quiet);
     let mut progress = |t: TimeNs| {
         let ms = (t.as_secs_f64() * 1e3) as u64;
         match args.duration {
@@ -78,4 +64,24 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         ),
         RecordEnd::Recording(e) => bail!("recording stopped: {e}; {} is finished", report.path.display()),
     }
+}
+
+/// A bar over `--duration`, or a spinner with the session time without one.
+fn progress_bar(args: &RecordArgs, quiet: bool) -> ProgressBar {
+    let bar = match (quiet, args.duration) {
+        (true, _) => ProgressBar::hidden(),
+        (false, Some(d)) => ProgressBar::new((d * 1e3) as u64),
+        (false, None) => ProgressBar::new_spinner(),
+    };
+    let template = if args.duration.is_some() {
+        "recording [{bar:30}] {percent:>3}%, {elapsed} (Ctrl-C stops)"
+    } else {
+        "recording {spinner} {msg} (Ctrl-C stops)"
+    };
+    bar.set_style(
+        ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
 }

@@ -76,7 +76,10 @@ fn sequences(options: &SimulatedEvalOptions) -> Result<Vec<FastSequenceConfig>> 
 
 /// The variants (ROFT and the network, or Table 5.6) and MaskUKF scored on
 /// the simulated sequences of `options`; `on_step` hears of each variant.
-pub fn simulated(options: &SimulatedEvalOptions, on_step: &mut dyn FnMut(EvalStep<'_>)) -> Result<Vec<ScoreRow>> {
+pub fn simulated(
+    options: &SimulatedEvalOptions,
+    on_step: &mut dyn FnMut(EvalStep<'_>),
+) -> Result<Vec<ScoreRow>> {
     let configs = sequences(options)?;
     let network = SlowNetworkConfig::default();
     let settings = TrackerSettings::default();
@@ -133,8 +136,7 @@ pub struct InputEvalOptions<'a> {
 /// The tracker of `options` scored on each input, and on all of them
 /// together when there are several.
 pub fn inputs(options: &InputEvalOptions<'_>) -> Result<Vec<ScoreRow>> {
-    let model =
-        options.model.context("--input needs --model (a file, or `sim` for simulated sessions)")?;
+    let model = options.model.context("--input needs --model (a file, or `sim` for simulated sessions)")?;
     let mut rows = Vec::new();
     let mut all = Vec::new();
     for input in options.inputs {

@@ -9,12 +9,12 @@ use slidetrack_core::CameraIntrinsics;
 use slidetrack_estimators::metrics::perturbed_start;
 use slidetrack_session::{ReadOptions, SessionInfo};
 use slidetrack_sim::rgbd::SimObjectKind;
-use slidetrack_vision::{ObjectModel, PoseReset, TrackerKind, VisionError};
 use slidetrack_vision::input::{RgbdSample, RgbdSource, SessionRgbd, YCB_CLASSES, YcbDirectory};
 use slidetrack_vision::sources::{
     ArucoConfig, ArucoSource, ExternalConfig, ExternalSource, FileSequence, MeasurementSource,
     SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
 };
+use slidetrack_vision::{ObjectModel, PoseReset, TrackerKind, VisionError};
 
 use super::{Measurements, TrackerStart};
 

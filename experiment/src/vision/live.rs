@@ -152,7 +152,9 @@ impl LiveVisionRun {
         let results = tracking.results();
         let first = results.iter().position(|f| f.estimate.is_some()).unwrap_or(results.len());
         let metrics = (first < results.len())
-            .then(|| tracking.model().object_points().map(|points| score(results, first, Scored::Tracker, &points)))
+            .then(|| {
+                tracking.model().object_points().map(|points| score(results, first, Scored::Tracker, &points))
+            })
             .transpose()?;
         let counts = tracking.counts();
         let streams = camera.counts();
@@ -266,7 +268,12 @@ impl<S: MeasurementSource> MeasurementSource for Shifted<S> {
 }
 
 /// The session of a live run, with what produced it in its metadata.
-fn recorder(options: &LiveOptions<'_>, path: &Path, offset_ns: i128, model: &ObjectModel) -> Result<Recorder> {
+fn recorder(
+    options: &LiveOptions<'_>,
+    path: &Path,
+    offset_ns: i128,
+    model: &ObjectModel,
+) -> Result<Recorder> {
     let recorder_options = RecorderOptions { overwrite: options.overwrite, ..RecorderOptions::default() };
     let metadata = Metadata::from([
         ("software_version".to_string(), env!("CARGO_PKG_VERSION").to_string()),

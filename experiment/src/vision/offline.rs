@@ -64,8 +64,11 @@ impl OfflineTracking {
         check_pose_reset(options.pose_reset, options.kind)?;
         let Prepared { source, measurements, model, intrinsics, initial_pose } =
             prepare(options.input, &options.input_options)?;
-        let settings =
-            TrackerSettings { initial_pose, maskukf_pose_reset: options.pose_reset, ..TrackerSettings::default() };
+        let settings = TrackerSettings {
+            initial_pose,
+            maskukf_pose_reset: options.pose_reset,
+            ..TrackerSettings::default()
+        };
         let tracker = build_tracker(options.kind, &model, &intrinsics, &settings)?;
         let recorder = match options.out {
             Some(path) => {
@@ -124,7 +127,9 @@ impl OfflineTracking {
         let tracker_fps = if busy.is_zero() { 0.0 } else { frames as f64 / busy.as_secs_f64() };
         let first = results.iter().position(|f| f.estimate.is_some()).unwrap_or(results.len());
         let metrics = (!results.is_empty() && first < results.len())
-            .then(|| self.model.object_points().map(|points| score(&results, first, Scored::Tracker, &points)))
+            .then(|| {
+                self.model.object_points().map(|points| score(&results, first, Scored::Tracker, &points))
+            })
             .transpose()?;
         let measurement_summary = self.measurements.summary();
         Ok(OfflineSummary { frames, tracked, tracker_fps, metrics, measurement_summary })

@@ -74,18 +74,24 @@ impl SimulatedSession {
             let known: Vec<&str> = SimObjectKind::ALL.iter().map(|k| k.name()).collect();
             format!("unknown object '{}' (known: {})", options.object, known.join(", "))
         })?;
-        anyhow::ensure!(options.duration_s > 0.0 && options.duration_s <= 600.0, "--duration must be in (0, 600] s");
+        anyhow::ensure!(
+            options.duration_s > 0.0 && options.duration_s <= 600.0,
+            "--duration must be in (0, 600] s"
+        );
         let mut config = FastSequenceConfig::new(kind, options.duration_s, options.seed);
         config.motion.max_speed_mps = options.max_speed_mps;
         config.motion.max_angular_speed_dps = options.max_angular_speed_dps;
         let mut sequence = FastSequence::new(config)?;
-        let marker = options.marker.as_deref().map(|m| print_marker(&mut sequence, m, options)).transpose()?;
+        let marker =
+            options.marker.as_deref().map(|m| print_marker(&mut sequence, m, options)).transpose()?;
         let (aruco_config, marker_warning) = match marker {
             Some((config, warning)) => (Some(config), warning),
             None => (None, None),
         };
-        let network_config = SlowNetworkConfig { seed: options.seed ^ 0x6e65_7477, ..SlowNetworkConfig::default() };
-        let rig_config = rig_config(kind, options, &network_config, aruco_config.as_ref().map(|(_, t)| t.as_str()));
+        let network_config =
+            SlowNetworkConfig { seed: options.seed ^ 0x6e65_7477, ..SlowNetworkConfig::default() };
+        let rig_config =
+            rig_config(kind, options, &network_config, aruco_config.as_ref().map(|(_, t)| t.as_str()));
         let metadata = SessionMetadata {
             software_version: env!("CARGO_PKG_VERSION").into(),
             rig: "sim-rgbd".into(),
@@ -102,7 +108,14 @@ impl SimulatedSession {
         let network = SlowNetwork::new(network_config);
         Ok(SimulatedSession {
             out: options.out.clone(),
-            kind, sequence, network, recorder, channels, aruco_config, marker_warning })
+            kind,
+            sequence,
+            network,
+            recorder,
+            channels,
+            aruco_config,
+            marker_warning,
+        })
     }
 
     /// Frames to write.

@@ -2,7 +2,9 @@
 
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
-use slidetrack_experiment::vision::eval::{EvalStep, InputEvalOptions, ScoreRow, SimulatedEvalOptions, inputs, simulated};
+use slidetrack_experiment::vision::eval::{
+    EvalStep, InputEvalOptions, ScoreRow, SimulatedEvalOptions, inputs, simulated,
+};
 
 use crate::cli::VisionEvalArgs as EvalArgs;
 
