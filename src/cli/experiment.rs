@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use slidetrack_experiment::vision::camera_vision::CameraVisionOptions;
 use slidetrack_experiment::vision::{Measurements, PoseReset, TrackerKind};
 
-use super::LiveArgs;
+use super::live::LiveArgs;
 
 /// Which rig runs the trial, on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -206,11 +206,11 @@ pub struct TrackArgs {
     pub aruco_config: Option<PathBuf>,
     /// The socket of `--vision-measurements external`.
     #[command(flatten)]
-    pub external: super::ExternalArgs,
+    pub external: super::vision::ExternalArgs,
     /// With `--vision maskukf` on a hardware rig: start again at a pose
     /// measurement more than CM centimetres or DEG degrees from the estimate
     /// (as `vision track --pose-reset`).
-    #[arg(long, value_name = "CM,DEG", value_parser = super::parse_pose_reset, requires = "vision")]
+    #[arg(long, value_name = "CM,DEG", value_parser = super::vision::parse_pose_reset, requires = "vision")]
     pub pose_reset: Option<PoseReset>,
 }
 

@@ -5,7 +5,6 @@
 use std::path::{Path, PathBuf};
 
 use proc_macro2::Span;
-use syn::spanned::Spanned;
 use syn::visit::Visit;
 
 /// One function of a file.
@@ -38,7 +37,7 @@ impl Functions<'_> {
     /// Records the function `name` whose signature starts at `start` and
     /// whose body is `block`.
     fn record(&mut self, name: &syn::Ident, start: Span, block: &syn::Block) {
-        let (first, last) = (start.start().line, block.span().end().line);
+        let (first, last) = (start.start().line, block.brace_token.span.close().end().line);
         self.found.push(FunctionLength {
             file: self.file.to_path_buf(),
             name: name.to_string(),
@@ -61,16 +60,25 @@ impl<'ast> Visit<'ast> for Functions<'_> {
 
     fn visit_trait_item_fn(&mut self, f: &'ast syn::TraitItemFn) {
         if let Some(block) = &f.default {
-            self.record(&f.sig.ident, f.sig.span(), block);
+            self.record(&f.sig.ident, signature_start(&syn::Visibility::Inherited, &f.sig), block);
         }
         syn::visit::visit_trait_item_fn(self, f);
     }
 }
 
-/// Where a function's first line is: its visibility, else its signature.
+/// Where a function's first line is: its visibility, else the first
+/// keyword of its signature (`const`, `async`, `extern`, `fn`).
 fn signature_start(vis: &syn::Visibility, sig: &syn::Signature) -> Span {
     match vis {
-        syn::Visibility::Inherited => sig.span(),
-        _ => vis.span(),
+        syn::Visibility::Public(token) => token.span,
+        syn::Visibility::Restricted(restricted) => restricted.pub_token.span,
+        syn::Visibility::Inherited => {
+            let keywords = [
+                sig.constness.as_ref().map(|t| t.span),
+                sig.asyncness.as_ref().map(|t| t.span),
+                sig.abi.as_ref().map(|a| a.extern_token.span),
+            ];
+            keywords.into_iter().flatten().next().unwrap_or(sig.fn_token.span)
+        }
     }
 }

@@ -24,12 +24,13 @@ pub struct ImportReport {
 }
 
 /// Runs the import check on every target of every package of `workspace`,
-/// looking for the cycles of `scope`.
-pub fn check_workspace(workspace: &Workspace, scope: CycleScope) -> ImportReport {
+/// looking for the cycles of `scope_of(package name)`.
+pub fn check_workspace(workspace: &Workspace, scope_of: impl Fn(&str) -> CycleScope) -> ImportReport {
     let sources = Sources::parse(&workspace.texts);
     let mut report = ImportReport { parse_errors: sources.errors.clone(), ..ImportReport::default() };
     let mut reached = BTreeSet::new();
     for package in &workspace.packages {
+        let scope = scope_of(&package.name);
         for root in &package.target_roots {
             let (tree, graph, cycles) = check_crate(root, &sources, scope);
             report.crates += 1;
