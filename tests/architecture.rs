@@ -178,14 +178,20 @@ fn cli_functions_are_short() {
     assert!(sources.errors.is_empty(), "files that do not parse:\n{}", sources.errors.join("\n"));
     let mut all: Vec<_> = sources.files.iter().flat_map(|(file, syntax)| functions(file, syntax)).collect();
     assert!(all.len() > 50, "the check found only {} functions in src/", all.len());
+    all.retain(|f| !REWRITTEN_ELSEWHERE.iter().any(|w| f.file == Path::new(w)));
     all.sort_by_key(|f| std::cmp::Reverse(f.lines));
     let long: Vec<String> = all
         .iter()
         .take_while(|f| f.lines > CLI_MAX_FUNCTION_LINES)
-        .filter(|f| !REWRITTEN_ELSEWHERE.iter().any(|w| f.file == Path::new(w)))
         .map(|f| format!("  {}:{} `{}`: {} lines", f.file.display(), f.line, f.name, f.lines))
         .collect();
-    eprintln!("longest function of src/: {} lines", all[0].lines);
+    eprintln!(
+        "longest function of src/: {}:{} `{}`, {} lines",
+        all[0].file.display(),
+        all[0].line,
+        all[0].name,
+        all[0].lines
+    );
     assert!(
         long.is_empty(),
         "functions of src/ over {CLI_MAX_FUNCTION_LINES} lines (move what they assemble into `experiment`):\n{}",

@@ -251,19 +251,21 @@ fn replay_inputs(options: &TrackOptions<'_>, model: &DekfModel) -> Result<Inputs
         bail!("--out must differ from the replayed session {}", input.display());
     }
     prepare_parent(&path)?;
-    let spec = session.trial_spec(path.clone(), options.overwrite);
-    let camera = spec.camera && options.camera;
-    if options.vision.is_some() && camera_vision.is_none() && !camera {
-        bail!(
-            "{}: --vision renders the in-hand scene at each replayed camera frame, and this replay has \
-             none (--no-camera, or a session recorded without the camera)",
-            input.display()
-        );
-    }
-    if spec.path.exists() && !spec.overwrite {
-        bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
-    }
-    drop(spec);
+    let camera = {
+        let spec = session.trial_spec(path.clone(), options.overwrite);
+        let camera = spec.camera && options.camera;
+        if options.vision.is_some() && camera_vision.is_none() && !camera {
+            bail!(
+                "{}: --vision renders the in-hand scene at each replayed camera frame, and this replay has \
+                 none (--no-camera, or a session recorded without the camera)",
+                input.display()
+            );
+        }
+        if spec.path.exists() && !spec.overwrite {
+            bail!("session file {} already exists; pass --overwrite to replace it", spec.path.display());
+        }
+        camera
+    };
     Ok(Inputs::Replay { session, camera_vision, path, camera })
 }
 
