@@ -83,6 +83,7 @@ pub struct TrackRun<'a> {
 }
 
 /// What a trial runs on.
+#[expect(clippy::large_enum_variant, reason = "one value per run, moved once")]
 enum Inputs {
     /// A new trial on the simulated or the real rig.
     New { kind: RigKind, object: ObjectConfig, rig: RigConfig, path: PathBuf },
