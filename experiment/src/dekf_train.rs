@@ -13,6 +13,12 @@ use slidetrack_estimators::derivative::{DEFAULT_OUTLIER_GATE_SIGMA, DerivativeFi
 
 use crate::dataset::{ChannelSet, SessionData, TruthSource};
 use crate::dekf_eval::score_session;
+
+/// The model options a training takes, for its callers to name.
+pub mod model_options {
+    pub use slidetrack_estimators::dekf::{Activation, Architecture, Batching, Measurement, StateKind};
+    pub use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
+}
 use crate::dekf_run::{DEFAULT_RATE_TOLERANCE, Inputs, RATE_TOLERANCE_KEY, inputs, normalisation, sequence};
 
 /// Default `--position-shift` (cm): without it the position drifts on long

@@ -32,9 +32,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use slidetrack_core::TimeNs;
+pub use slidetrack_estimators::slip::GraspDetectorConfig;
 use slidetrack_estimators::slip::{
-    GraspDetectorConfig, GraspState, HoldSummary, drop_detection_delay_s, hold_summary, roc_auc,
-    tactile_release,
+    GraspState, HoldSummary, drop_detection_delay_s, hold_summary, roc_auc, tactile_release,
 };
 use slidetrack_session::{
     ArucoDetection, ChannelMessage, HandState, MessageReader, ReadOptions, SessionInfo, SlipEstimate,

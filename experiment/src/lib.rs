@@ -1,6 +1,8 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+pub mod bench;
+pub mod camera_calibration;
 pub mod channels;
 pub mod dataset;
 pub mod dekf_eval;
@@ -11,8 +13,11 @@ pub mod devices;
 pub mod emulate;
 pub mod grasp_eval;
 pub mod grasp_state;
+pub mod image_markers;
 pub mod import;
+pub mod labelling;
 pub mod linear_baseline;
+pub mod live_view;
 pub mod marker;
 pub mod observer;
 pub mod pipeline;
@@ -21,10 +26,14 @@ pub mod plot;
 pub mod protocol;
 pub mod record;
 pub mod replay;
+pub mod replay_file;
 pub mod rig;
 pub mod rig_config;
 pub mod study;
+pub mod tracked_trial;
 pub mod tracking;
 pub mod trial;
+pub mod trial_inputs;
+pub mod vision;
 pub mod vision_inhand;
 pub mod vision_sim;

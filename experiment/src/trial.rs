@@ -5,8 +5,8 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Instant, SystemTime};
 
 use anyhow::{Context, Result};
-use slidetrack_control::{TrialOutcome, run_trial};
-use slidetrack_core::{TactileInfo, TimeNs};
+use slidetrack_control::{AbortReason, TrialOutcome, run_trial};
+use slidetrack_core::{DeviceError, TactileInfo, TimeNs};
 use slidetrack_session::{Logger, Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TaxelLayout};
 use slidetrack_sim::sliding_episodes;
 
@@ -28,6 +28,14 @@ pub struct TrialReport {
 }
 
 impl TrialReport {
+    /// The device error that aborted the trial, if one did.
+    pub fn device_error(&self) -> Option<&DeviceError> {
+        match &self.outcome.abort {
+            Some(AbortReason::Device(e)) => Some(e),
+            _ => None,
+        }
+    }
+
     /// Sliding episodes and travel (m) of the simulator's truth before the release.
     pub fn sliding_summary(&self) -> (usize, f64) {
         let end = self.stats.release_at.unwrap_or(TimeNs(u64::MAX));

@@ -3,9 +3,10 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use slidetrack_estimators::dekf::{Activation, Batching, Measurement, StateKind};
-use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
 use slidetrack_experiment::dataset::TruthSource;
+use slidetrack_experiment::dekf_train::model_options::{
+    Activation, Batching, DEFAULT_OUTLIER_GATE_SIGMA, Measurement, StateKind,
+};
 use slidetrack_experiment::dekf_train::{DEFAULT_CLIP_NORM, DEFAULT_POSITION_SHIFT_CM};
 use slidetrack_experiment::protocol::Protocol;
 

@@ -4,9 +4,10 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use slidetrack_vision::TrackerKind;
+use slidetrack_experiment::vision::camera_vision::CameraVisionOptions;
+use slidetrack_experiment::vision::{Measurements, PoseReset, TrackerKind};
 
-use super::LiveArgs;
+use super::live::LiveArgs;
 
 /// Which rig runs the trial, on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -205,12 +206,12 @@ pub struct TrackArgs {
     pub aruco_config: Option<PathBuf>,
     /// The socket of `--vision-measurements external`.
     #[command(flatten)]
-    pub external: super::ExternalArgs,
+    pub external: super::vision::ExternalArgs,
     /// With `--vision maskukf` on a hardware rig: start again at a pose
     /// measurement more than CM centimetres or DEG degrees from the estimate
     /// (as `vision track --pose-reset`).
-    #[arg(long, value_name = "CM,DEG", value_parser = super::parse_pose_reset, requires = "vision")]
-    pub pose_reset: Option<slidetrack_vision::PoseReset>,
+    #[arg(long, value_name = "CM,DEG", value_parser = super::vision::parse_pose_reset, requires = "vision")]
+    pub pose_reset: Option<PoseReset>,
 }
 
 /// Masks and poses of a vision tracker on a real camera.
@@ -238,6 +239,30 @@ impl From<VisionArg> for TrackerKind {
         match v {
             VisionArg::Maskukf => TrackerKind::MaskUkf,
             VisionArg::Roft => TrackerKind::Roft,
+        }
+    }
+}
+
+impl From<CameraMeasurementsArg> for Measurements {
+    fn from(arg: CameraMeasurementsArg) -> Measurements {
+        match arg {
+            CameraMeasurementsArg::Aruco => Measurements::Aruco,
+            CameraMeasurementsArg::External => Measurements::External,
+        }
+    }
+}
+
+impl TrackArgs {
+    /// The options of the `--vision` tracker `kind` on a camera.
+    pub fn camera_vision_options(&self, kind: VisionArg) -> CameraVisionOptions<'_> {
+        CameraVisionOptions {
+            kind: kind.into(),
+            model: self.vision_model.as_deref(),
+            model_scale: self.vision_model_scale,
+            measurements: self.vision_measurements.into(),
+            aruco_config: self.aruco_config.as_deref(),
+            external: self.external.config(),
+            pose_reset: self.pose_reset,
         }
     }
 }

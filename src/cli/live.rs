@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use slidetrack_live::DEFAULT_LIVE_ADDR;
+use slidetrack_experiment::live_view::DEFAULT_LIVE_ADDR;
 
 /// Publishing a run live to Foxglove (`collect`, `track`).
 #[derive(Debug, Args, Clone, PartialEq)]

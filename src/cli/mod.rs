@@ -8,6 +8,8 @@ mod emulate;
 mod experiment;
 mod import;
 mod live;
+#[cfg(test)]
+mod parse_tests;
 mod session;
 mod slip;
 mod vision;

@@ -167,11 +167,11 @@ pub struct LabelArgs {
     pub hand_from_camera: Option<Vec<f64>>,
     /// Recordings without the protocol: the normal load (sum of the
     /// baseline-subtracted z counts of every taxel) at which the hold begins.
-    #[arg(long, value_name = "COUNTS", default_value_t = slidetrack_estimators::slip::DEFAULT_CONTACT_LOAD_COUNTS)]
+    #[arg(long, value_name = "COUNTS", default_value_t = slidetrack_experiment::labelling::DEFAULT_CONTACT_LOAD_COUNTS)]
     pub contact_load: f64,
     /// Recordings without the protocol: time after the contact load is
     /// reached before the hold counts (s), while the gripper still closes.
-    #[arg(long, value_name = "S", default_value_t = slidetrack_calibration::in_hand::hold::DEFAULT_SETTLE_S)]
+    #[arg(long, value_name = "S", default_value_t = slidetrack_experiment::labelling::DEFAULT_SETTLE_S)]
     pub hold_settle: f64,
     /// The recordings start with the object already held (their tare is the
     /// grasped state, as xela-psc's): the hold runs from the first scan with

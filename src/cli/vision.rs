@@ -1,9 +1,11 @@
 //! Arguments of `vision` and its subcommands.
 
 use std::path::PathBuf;
+use std::time::Duration;
 
 use clap::{Args, Subcommand, ValueEnum};
-use slidetrack_vision::PoseReset;
+use slidetrack_experiment::vision::input::InputOptions;
+use slidetrack_experiment::vision::{ExternalConfig, Measurements, PoseReset, TrackerKind, TrackerStart};
 
 /// Arguments of `vision`.
 #[derive(Debug, Args)]
@@ -248,116 +250,63 @@ pub struct VisionEvalArgs {
 
 impl TrackerArg {
     /// The library's kind.
-    pub fn kind(self) -> slidetrack_vision::TrackerKind {
+    pub fn kind(self) -> TrackerKind {
         match self {
-            TrackerArg::Maskukf => slidetrack_vision::TrackerKind::MaskUkf,
-            TrackerArg::Roft => slidetrack_vision::TrackerKind::Roft,
+            TrackerArg::Maskukf => TrackerKind::MaskUkf,
+            TrackerArg::Roft => TrackerKind::Roft,
         }
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use clap::Parser;
-
-    use super::*;
-    use crate::cli::{Cli, Command};
-
-    #[test]
-    fn the_documented_commands_parse() {
-        let cli = Cli::try_parse_from([
-            "slidetrack",
-            "vision",
-            "track",
-            "--tracker",
-            "roft",
-            "--input",
-            "s.mcap",
-            "--model",
-            "sim",
-            "--out",
-            "e.mcap",
-        ])
-        .unwrap();
-        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
-        assert_eq!(t.tracker, TrackerArg::Roft);
-        assert_eq!(t.measurements, MeasurementsArg::Input);
-        let live = ["slidetrack", "vision", "track", "--tracker", "roft", "--model", "m.obj", "--live"];
-        let cli = Cli::try_parse_from(live.iter().chain(&["--rig", "r.toml", "--duration", "5"])).unwrap();
-        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
-        assert!(t.live && t.input.is_none() && t.duration == Some(5.0));
-        assert!(Cli::try_parse_from(live).is_err(), "--live needs --rig");
-        assert!(Cli::try_parse_from(live.iter().chain(&["--rig", "r", "--input", "s.mcap"])).is_err());
-        let cli = Cli::try_parse_from([
-            "slidetrack",
-            "vision",
-            "eval",
-            "--ablation",
-            "--json",
-            "--objects",
-            "soup_can,cracker_box",
-        ])
-        .unwrap();
-        let Command::Vision(VisionArgs { command: VisionCommand::Eval(e) }) = cli.command else { panic!() };
-        assert!(e.ablation && e.json);
-        assert_eq!(e.objects, vec!["soup_can", "cracker_box"]);
-        assert!(
-            Cli::try_parse_from([
-                "slidetrack",
-                "vision",
-                "track",
-                "--tracker",
-                "other",
-                "--input",
-                "x",
-                "--model",
-                "m"
-            ])
-            .is_err()
-        );
+impl From<MeasurementsArg> for Measurements {
+    fn from(arg: MeasurementsArg) -> Measurements {
+        match arg {
+            MeasurementsArg::Input => Measurements::Input,
+            MeasurementsArg::Network => Measurements::Network,
+            MeasurementsArg::Truth => Measurements::Truth,
+            MeasurementsArg::Aruco => Measurements::Aruco,
+            MeasurementsArg::External => Measurements::External,
+        }
     }
+}
 
-    #[test]
-    fn the_source_options_parse() {
-        let cli = Cli::try_parse_from([
-            "slidetrack",
-            "vision",
-            "track",
-            "--tracker",
-            "roft",
-            "--input",
-            "s.mcap",
-            "--model",
-            "sim",
-            "--measurements",
-            "external",
-            "--listen",
-            "127.0.0.1:9000",
-            "--external-wait-ms",
-            "0",
-        ])
-        .unwrap();
-        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
-        assert_eq!(
-            (t.measurements, t.external.listen.as_str(), t.external.external_wait_ms),
-            (MeasurementsArg::External, "127.0.0.1:9000", 0)
-        );
-        let aruco = [
-            "slidetrack",
-            "vision",
-            "track",
-            "--tracker",
-            "roft",
-            "--input",
-            "s",
-            "--model",
-            "m",
-            "--measurements",
-            "aruco",
-        ];
-        assert!(Cli::try_parse_from(aruco).is_err(), "aruco without --aruco-config");
-        let cli = Cli::try_parse_from(aruco.iter().copied().chain(["--aruco-config", "a.toml"])).unwrap();
-        let Command::Vision(VisionArgs { command: VisionCommand::Track(t) }) = cli.command else { panic!() };
-        assert_eq!(t.aruco_config.as_deref(), Some(std::path::Path::new("a.toml")));
+impl From<InitArg> for TrackerStart {
+    fn from(arg: InitArg) -> TrackerStart {
+        match arg {
+            InitArg::Measurement => TrackerStart::Measurement,
+            InitArg::Truth => TrackerStart::Truth,
+            InitArg::Perturbed => TrackerStart::Perturbed,
+        }
+    }
+}
+
+impl ExternalArgs {
+    /// The external source's settings.
+    pub fn config(&self) -> ExternalConfig {
+        ExternalConfig {
+            listen: self.listen.clone(),
+            wait_for_result: (self.external_wait_ms > 0)
+                .then(|| Duration::from_millis(self.external_wait_ms)),
+            wait_for_client: (self.external_wait_client_ms > 0)
+                .then(|| Duration::from_millis(self.external_wait_client_ms)),
+            max_age_ns: self.external_max_age_ms.saturating_mul(1_000_000),
+            send_images: self.external_send_images,
+        }
+    }
+}
+
+impl VisionTrackArgs {
+    /// The model, measurements and start of the tracker.
+    pub fn input_options(&self) -> InputOptions<'_> {
+        InputOptions {
+            model: &self.model,
+            model_scale: self.model_scale,
+            object: self.object.as_deref(),
+            measurements: self.measurements.into(),
+            init: self.init.into(),
+            recover: self.recover,
+            aruco_config: self.aruco_config.as_deref(),
+            external: Some(self.external.config()),
+        }
     }
 }

@@ -4,12 +4,11 @@ use std::sync::atomic::Ordering;
 
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use slidetrack_control::AbortReason;
+use slidetrack_core::TimeNs;
+use slidetrack_experiment::live_view::LiveView;
 use slidetrack_experiment::rig::{RigKind, TrialSpec, build_rig};
-use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_experiment::trial::{TrialReport, prepare_out_dir, record_trial, session_file_name};
-use slidetrack_live::LiveServer;
-use slidetrack_sim::ObjectConfig;
+use slidetrack_experiment::trial_inputs::TrialInputs;
 
 use crate::cli::{CollectArgs, RigArg};
 
@@ -27,35 +26,15 @@ pub fn run(args: &CollectArgs, quiet: bool) -> Result<()> {
 
 /// Runs the trials of `args`, printing one line per trial; returns their reports.
 pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
-    if !(args.run.duration.is_finite() && args.run.duration > 0.0) {
-        bail!("--duration must be a positive number of seconds, got {}", args.run.duration);
-    }
-    if args.trials == 0 {
-        bail!("--trials must be at least 1");
-    }
-    let kind = match args.run.rig {
-        RigArg::Sim => RigKind::Sim,
-        RigArg::Hw => RigKind::Hw,
-        RigArg::Replay => bail!(
-            "collect records new trials; to run the trackers on a recorded session use \
-             `slidetrack track --rig replay --session FILE` (or `slidetrack replay`)"
-        ),
-    };
-    let object = ObjectConfig::load(&args.run.object)?;
-    let rig = RigConfig::load(args.run.config.as_deref())?;
+    let kind = rig_kind(args)?;
+    let TrialInputs { object, rig } = TrialInputs::load(&args.run.object, args.run.config.as_deref())?;
     prepare_out_dir(&args.out)?;
     // Before any device moves: an address that cannot serve stops here.
     let live = super::live::start(&args.run.live)?;
     let stop = super::stop_flag(super::RELEASING);
 
     let per_trial_ms = ((args.run.duration + SETUP_S) * 1e3) as u64;
-    let bar =
-        if quiet { ProgressBar::hidden() } else { ProgressBar::new(per_trial_ms * u64::from(args.trials)) };
-    bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% sim time, {elapsed} wall, eta {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    let bar = progress_bar(quiet, per_trial_ms * u64::from(args.trials));
     let mut reports = Vec::new();
     for (k, trial) in (args.first_trial..args.first_trial + args.trials).enumerate() {
         let path = args.out.join(session_file_name(&object.name, args.run.seed, trial));
@@ -71,35 +50,13 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
             realtime: args.run.realtime,
             overwrite: args.run.overwrite,
             path,
-            live: live.as_ref().map(LiveServer::tap),
+            live: live.as_ref().map(LiveView::tap),
         };
-        let mut progress = |t: slidetrack_core::TimeNs| {
+        let mut progress = |t: TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
         };
         let report = record_trial(build_rig(kind, &spec)?, &spec, &stop, &mut progress)?;
-        bar.suspend(|| println!("{}", report.summary_line()));
-        if let Some(counters) = report.stats.decoder {
-            bar.suspend(|| println!("  tactile decoder: {counters}"));
-        }
-        if report.images_dropped > 0 {
-            tracing::warn!(
-                "{}: {} camera images dropped under back-pressure",
-                report.path.display(),
-                report.images_dropped
-            );
-        }
-        if let Some(AbortReason::Device(e)) = &report.outcome.abort {
-            bar.finish_and_clear();
-            let hand = match &report.outcome.release_error {
-                None => "the hand was released".to_string(),
-                Some(r) => format!("releasing the hand failed too ({r})"),
-            };
-            bail!(
-                "trial {trial} stopped: {e}; {hand}; {} keeps the {} scans recorded so far",
-                report.path.display(),
-                report.stats.scans
-            );
-        }
+        after_trial(&report, trial, &bar)?;
         reports.push(report);
         if stop.load(Ordering::SeqCst) {
             bar.finish_and_clear();
@@ -109,4 +66,61 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
     bar.finish_and_clear();
     super::live::finish(live);
     Ok(reports)
+}
+
+/// The rig of `args`, its options checked.
+fn rig_kind(args: &CollectArgs) -> Result<RigKind> {
+    if !(args.run.duration.is_finite() && args.run.duration > 0.0) {
+        bail!("--duration must be a positive number of seconds, got {}", args.run.duration);
+    }
+    if args.trials == 0 {
+        bail!("--trials must be at least 1");
+    }
+    Ok(match args.run.rig {
+        RigArg::Sim => RigKind::Sim,
+        RigArg::Hw => RigKind::Hw,
+        RigArg::Replay => bail!(
+            "collect records new trials; to run the trackers on a recorded session use \
+             `slidetrack track --rig replay --session FILE` (or `slidetrack replay`)"
+        ),
+    })
+}
+
+/// The bar of `total_ms` of session time over all trials.
+fn progress_bar(quiet: bool, total_ms: u64) -> ProgressBar {
+    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(total_ms) };
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% sim time, {elapsed} wall, eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// The lines of one trial; an error when a device stopped it.
+fn after_trial(report: &TrialReport, trial: u32, bar: &ProgressBar) -> Result<()> {
+    bar.suspend(|| println!("{}", report.summary_line()));
+    if let Some(counters) = report.stats.decoder {
+        bar.suspend(|| println!("  tactile decoder: {counters}"));
+    }
+    if report.images_dropped > 0 {
+        tracing::warn!(
+            "{}: {} camera images dropped under back-pressure",
+            report.path.display(),
+            report.images_dropped
+        );
+    }
+    if let Some(e) = report.device_error() {
+        bar.finish_and_clear();
+        let hand = match &report.outcome.release_error {
+            None => "the hand was released".to_string(),
+            Some(r) => format!("releasing the hand failed too ({r})"),
+        };
+        bail!(
+            "trial {trial} stopped: {e}; {hand}; {} keeps the {} scans recorded so far",
+            report.path.display(),
+            report.stats.scans
+        );
+    }
+    Ok(())
 }

@@ -4,13 +4,14 @@
 //! evaluate it on held-out sessions: the table of Table 6.1 and the plots
 //! of Figs. 6.4-6.9.
 
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Result, bail};
 use slidetrack_experiment::dataset::{ChannelSet, TruthSource, load};
 use slidetrack_experiment::dekf_eval::{evaluate, table};
 use slidetrack_experiment::dekf_run::{save_model, write_atomically};
-use slidetrack_experiment::dekf_train::TrainSpec;
+use slidetrack_experiment::dekf_train::{TrainSpec, Trained};
 use slidetrack_experiment::linear_baseline::{LinearBaseline, path_for};
 use slidetrack_experiment::pipeline::{DataSpec, collect, label, threads};
 use slidetrack_experiment::plot::dekf::plot_training_curve;
@@ -51,6 +52,31 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
 
     step(&format!("training the dEKF on {} sessions (xy channels, tactile derivative)", train.len()));
     let model_path = args.out.join("box-xy.safetensors");
+    let (trained, linear) = train_step(args, train, &model_path, workers, quiet)?;
+
+    step(&format!("evaluating on {} held-out sessions", test.len()));
+    evaluate_step(args, &trained, test, &linear)?;
+
+    step("plots");
+    plots(args, &test[0], model_path)?;
+    println!("{}", args.out.join("training-curve.png").display());
+    println!("\ndone in {:.0} s; everything is in {}", started.elapsed().as_secs_f64(), args.out.display());
+    println!(
+        "next: `slidetrack track --model {} --vision roft` runs the trackers live; `slidetrack study --quick` the thesis's tables",
+        args.out.join("box-xy.safetensors").display()
+    );
+    Ok(())
+}
+
+/// The dEKF trained on `train` and saved at `model_path`, the linear-map
+/// baseline fitted beside it, and the training curve plotted.
+fn train_step(
+    args: &DemoArgs,
+    train: &[PathBuf],
+    model_path: &Path,
+    workers: usize,
+    quiet: bool,
+) -> Result<(Trained, LinearBaseline)> {
     let spec = TrainSpec {
         channels: ChannelSet::Xy.names(),
         seed: args.seed,
@@ -60,15 +86,24 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
     };
     let sessions = train.iter().map(|f| load(f, Some(spec.truth))).collect::<Result<Vec<_>>>()?;
     let trained = fit_with_progress(&spec, &sessions, quiet)?;
-    save_model(&trained.model, &model_path)?;
+    save_model(&trained.model, model_path)?;
     println!("  {} ({:.1} s of training)", model_path.display(), trained.seconds);
     let linear = LinearBaseline::fit(&trained.model, &sessions)?;
-    linear.save(&path_for(&model_path))?;
-    println!("  {} (the linear-map baseline on the same sessions)", path_for(&model_path).display());
+    linear.save(&path_for(model_path))?;
+    println!("  {} (the linear-map baseline on the same sessions)", path_for(model_path).display());
     plot_training_curve(&trained.epochs, &args.out.join("training-curve.png"))?;
+    Ok((trained, linear))
+}
 
-    step(&format!("evaluating on {} held-out sessions", test.len()));
-    let report = evaluate(&trained.model, test, TruthSource::GroundTruth, Some(&linear))?;
+/// The table of `model` on the held-out sessions `test`, against the
+/// baselines, written to `eval.json` too.
+fn evaluate_step(
+    args: &DemoArgs,
+    trained: &Trained,
+    test: &[PathBuf],
+    linear: &LinearBaseline,
+) -> Result<()> {
+    let report = evaluate(&trained.model, test, TruthSource::GroundTruth, Some(linear))?;
     print!("{}", table(&report));
     let ratio = report.mean.position_rmse_cm / report.mean.baseline_position_rmse_cm.max(1e-12);
     println!(
@@ -85,15 +120,6 @@ pub fn run(args: &DemoArgs, quiet: bool) -> Result<()> {
         );
     }
     write_atomically(&args.out.join("eval.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
-
-    step("plots");
-    plots(args, &test[0], model_path)?;
-    println!("{}", args.out.join("training-curve.png").display());
-    println!("\ndone in {:.0} s; everything is in {}", started.elapsed().as_secs_f64(), args.out.display());
-    println!(
-        "next: `slidetrack track --model {} --vision roft` runs the trackers live; `slidetrack study --quick` the thesis's tables",
-        args.out.join("box-xy.safetensors").display()
-    );
     Ok(())
 }
 

@@ -3,10 +3,10 @@
 
 use anyhow::Result;
 use serde_json::json;
-use slidetrack_estimators::dekf::StateKind;
 use slidetrack_experiment::dataset::expand;
 use slidetrack_experiment::dekf_eval::{evaluate, table};
 use slidetrack_experiment::dekf_run::load_model;
+use slidetrack_experiment::dekf_train::model_options::StateKind;
 use slidetrack_experiment::linear_baseline::LinearBaseline;
 use slidetrack_experiment::planar_eval::{evaluate_planar, planar_table};
 

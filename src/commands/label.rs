@@ -2,40 +2,17 @@
 
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde_json::json;
-use slidetrack_calibration::ground_truth::{
-    AxisSource, DEFAULT_GATE_MAHALANOBIS2, default_params, gate, thesis_params,
+use slidetrack_experiment::labelling::{
+    AxisSource, CvParams, GroundTruthSlot, InHandRecord, InHandSettings, JointTuning, LabelOptions,
+    LabelReport, SmootherSettings, Tuning, in_hand_jointly_into, in_hand_options, label_session,
+    smoother_params, tune_sessions,
 };
-use slidetrack_calibration::in_hand::session::in_hand_jointly;
-use slidetrack_calibration::in_hand::{ContactSource, InHandOptions, InHandRecord};
-use slidetrack_calibration::label::read_inputs;
-use slidetrack_calibration::label::{
-    GroundTruthSlot, JointTuning, LabelOptions, LabelReport, Tuning, label_session, tune_sessions,
-};
-use slidetrack_estimators::constant_velocity::CvParams;
-use slidetrack_session::ReadOptions;
 
 use crate::cli::{AxisArg, LabelArgs, SlotArg};
 
 pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
-    let mut options = LabelOptions {
-        params: params(args)?,
-        axis: match args.axis {
-            AxisArg::Recorded => AxisSource::Recorded,
-            AxisArg::Config => AxisSource::Config,
-            AxisArg::Estimate => AxisSource::Estimate,
-        },
-        recover: args.recover,
-        dry_run: args.dry_run,
-        tuning: if args.tune { Tuning::PerSession } else { Tuning::Off },
-        slot: match args.slot {
-            SlotArg::Default => GroundTruthSlot::Default,
-            SlotArg::Thesis => GroundTruthSlot::Thesis,
-        },
-        in_hand: in_hand_options(args)?,
-        in_hand_joint: None,
-    };
+    let mut options = options(args)?;
     let joint = if args.jointly {
         let (params, joint) = tune_sessions(&args.files, &options)?;
         options.params = params;
@@ -48,37 +25,7 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
         None
     };
     let joint_in_hand = if args.jointly { in_hand_jointly_for(args, &mut options)? } else { None };
-    let bar = if quiet || args.files.len() < 2 {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(args.files.len() as u64)
-    };
-    bar.set_style(
-        ProgressStyle::with_template("labelling [{bar:30}] {pos}/{len} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    let mut summaries = Vec::new();
-    let mut failures = Vec::new();
-    for file in &args.files {
-        bar.set_message(file.display().to_string());
-        match label_session(file, &options) {
-            Ok(report) => {
-                if args.json {
-                    summaries.push(to_json(&report));
-                } else {
-                    bar.suspend(|| println!("{}", to_text(&report)));
-                }
-            }
-            Err(e) if args.files.len() == 1 => return Err(e.into()),
-            Err(e) => {
-                bar.suspend(|| eprintln!("error: {}", crate::one_line(&e.into())));
-                failures.push(file.display().to_string());
-            }
-        }
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
+    let (summaries, failures) = label_files(args, &options, quiet)?;
     if args.json {
         let out = match joint {
             Some(j) => json!({
@@ -101,23 +48,99 @@ pub fn run(args: &LabelArgs, quiet: bool) -> Result<()> {
     Ok(())
 }
 
+/// The labelling options of `args`.
+fn options(args: &LabelArgs) -> Result<LabelOptions> {
+    let smoother = SmootherSettings {
+        thesis: args.thesis,
+        q_position: args.q_position,
+        q_velocity: args.q_velocity,
+        r: args.r,
+        gate: args.gate,
+        no_gate: args.no_gate,
+        tune: args.tune,
+        reacquire_after: args.reacquire_after,
+    };
+    let in_hand = InHandSettings {
+        off: args.no_in_hand,
+        from_file: args.in_hand.as_deref(),
+        reacquire_after: args.reacquire_after,
+        hand_from_camera: args.hand_from_camera.as_deref(),
+        contact_load_counts: args.contact_load,
+        hold_settle_s: args.hold_settle,
+        hold_from_start: args.hold_from_start,
+    };
+    Ok(LabelOptions {
+        params: smoother_params(&smoother)?,
+        axis: match args.axis {
+            AxisArg::Recorded => AxisSource::Recorded,
+            AxisArg::Config => AxisSource::Config,
+            AxisArg::Estimate => AxisSource::Estimate,
+        },
+        recover: args.recover,
+        dry_run: args.dry_run,
+        tuning: if args.tune { Tuning::PerSession } else { Tuning::Off },
+        slot: match args.slot {
+            SlotArg::Default => GroundTruthSlot::Default,
+            SlotArg::Thesis => GroundTruthSlot::Thesis,
+        },
+        in_hand: in_hand_options(&in_hand)?,
+        in_hand_joint: None,
+    })
+}
+
+/// Labels each file, one line (or JSON summary) each; the summaries and
+/// the files that failed (with several files, a failure does not stop the others).
+fn label_files(
+    args: &LabelArgs,
+    options: &LabelOptions,
+    quiet: bool,
+) -> Result<(Vec<serde_json::Value>, Vec<String>)> {
+    let bar = if quiet || args.files.len() < 2 {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(args.files.len() as u64)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("labelling [{bar:30}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let mut summaries = Vec::new();
+    let mut failures = Vec::new();
+    for file in &args.files {
+        bar.set_message(file.display().to_string());
+        match label_session(file, options) {
+            Ok(report) => {
+                if args.json {
+                    summaries.push(to_json(&report));
+                } else {
+                    bar.suspend(|| println!("{}", to_text(&report)));
+                }
+            }
+            Err(e) if args.files.len() == 1 => return Err(e.into()),
+            Err(e) => {
+                bar.suspend(|| eprintln!("error: {}", crate::one_line(&e.into())));
+                failures.push(file.display().to_string());
+            }
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok((summaries, failures))
+}
+
 /// With `--jointly`: the pose smoother's densities tuned on all the files
 /// and the contact frame estimated from all their holds, put into
 /// `options` (and saved with `--save-in-hand`); `None` without in-hand
 /// labelling or without a hold.
 fn in_hand_jointly_for(args: &LabelArgs, options: &mut LabelOptions) -> Result<Option<InHandRecord>> {
-    let Some(o) = options.in_hand.as_mut() else { return Ok(None) };
-    let read = ReadOptions { recover: args.recover };
-    let inputs = args.files.iter().map(|f| read_inputs(f, read)).collect::<Result<Vec<_>, _>>()?;
-    let Some(record) = in_hand_jointly(&inputs, o, true)? else {
-        if args.save_in_hand.is_some() {
+    let labels_in_hand = options.in_hand.is_some();
+    let Some(record) = in_hand_jointly_into(&args.files, args.recover, options)? else {
+        if labels_in_hand && args.save_in_hand.is_some() {
             bail!("no session has a hold with marker poses: nothing to save in --save-in-hand");
         }
         return Ok(None);
     };
-    o.params = (&record.pose).into();
-    o.contact = ContactSource::Given(record.contact.clone());
-    options.in_hand_joint = Some(record.how.clone());
     if !args.json {
         println!("{}", in_hand_text(&record));
     }
@@ -126,42 +149,6 @@ fn in_hand_jointly_for(args: &LabelArgs, options: &mut LabelOptions) -> Result<O
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     Ok(Some(record))
-}
-
-/// The in-hand labelling `args` ask for (`None` with `--no-in-hand`).
-fn in_hand_options(args: &LabelArgs) -> Result<Option<InHandOptions>> {
-    if args.no_in_hand {
-        return Ok(None);
-    }
-    let mut o = InHandOptions::default();
-    if let Some(path) = &args.in_hand {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-        let record: InHandRecord = serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a --save-in-hand file", path.display()))?;
-        o.params = (&record.pose).into();
-        o.contact = ContactSource::Given(record.contact);
-    }
-    if let Some(g) = o.params.gate.as_mut() {
-        g.reacquire_after = (args.reacquire_after > 0).then_some(args.reacquire_after);
-    }
-    if let Some(v) = &args.hand_from_camera {
-        let q =
-            UnitQuaternion::try_new(Quaternion::new(v[6], v[3], v[4], v[5]), 1e-9).with_context(|| {
-                format!("--hand-from-camera: the quaternion {:?} has no usable norm", &v[3..])
-            })?;
-        o.hand_from_camera = Some(Isometry3::from_parts(Translation3::new(v[0], v[1], v[2]), q));
-    }
-    if !(args.contact_load.is_finite() && args.contact_load > 0.0) {
-        bail!("--contact-load must be a positive number of counts, got {}", args.contact_load);
-    }
-    if !(args.hold_settle.is_finite() && args.hold_settle >= 0.0) {
-        bail!("--hold-settle must be a non-negative number of seconds, got {}", args.hold_settle);
-    }
-    o.hold.detector.contact_load_counts = args.contact_load;
-    o.hold.settle_s = args.hold_settle;
-    o.hold.from_start = args.hold_from_start;
-    Ok(Some(o))
 }
 
 /// The joint in-hand estimate in a few lines.
@@ -177,38 +164,6 @@ fn in_hand_text(r: &InHandRecord) -> String {
         f(c.origin_m),
         c.how
     )
-}
-
-/// The defaults with the command line's overrides, checked.
-fn params(args: &LabelArgs) -> Result<CvParams> {
-    let mut p = if args.thesis { thesis_params() } else { default_params() };
-    let positive = |name: &str, v: f64| -> Result<f64> {
-        if v.is_finite() && v > 0.0 { Ok(v) } else { bail!("--{name} must be a positive number, got {v}") }
-    };
-    if let Some(q) = args.q_position {
-        p.q_position_m2_per_s = positive("q-position", q)?;
-    }
-    if let Some(q) = args.q_velocity {
-        p.q_velocity_m2_per_s3 = positive("q-velocity", q)?;
-    }
-    if let Some(r) = args.r {
-        p.r_m2 = positive("r", r)?;
-    }
-    if let Some(g) = args.gate {
-        p.gate = gate(Some(positive("gate", g)?));
-    }
-    if args.no_gate {
-        p.gate = None;
-    }
-    if args.tune && p.gate.is_none() {
-        // Without a gate the likelihood has optima that follow every marker
-        // position exactly (R -> 0, a noisy velocity): tune with the default gate.
-        p.gate = gate(Some(DEFAULT_GATE_MAHALANOBIS2));
-    }
-    if let Some(g) = p.gate.as_mut() {
-        g.reacquire_after = (args.reacquire_after > 0).then_some(args.reacquire_after);
-    }
-    Ok(p)
 }
 
 /// The tuned densities in one line (R also as the marker's standard deviation).

@@ -1,30 +1,26 @@
 //! `--live`: the Foxglove server beside a recording run.
 
-use anyhow::{Result, bail};
-use slidetrack_live::{LiveOptions, LiveServer};
+use anyhow::Result;
+use slidetrack_experiment::live_view::LiveView;
 
 use crate::cli::LiveArgs;
 
 /// Starts the live view `args` asks for, before any device moves; prints its
 /// address on stderr (one line).
-pub fn start(args: &LiveArgs) -> Result<Option<LiveServer>> {
+pub fn start(args: &LiveArgs) -> Result<Option<LiveView>> {
     let Some(addr) = &args.live else { return Ok(None) };
-    if !(args.live_image_hz.is_finite() && args.live_image_hz >= 0.0) {
-        bail!("--live-image-hz must be 0 (every image) or a positive rate, got {}", args.live_image_hz);
-    }
-    let options = LiveOptions { image_max_hz: args.live_image_hz, ..LiveOptions::default() };
-    let server = LiveServer::start(addr, &options)?;
+    let view = LiveView::start(addr, args.live_image_hz)?;
     eprintln!(
         "live: Foxglove WebSocket server on {} (Foxglove: Open connection > Foxglove WebSocket)",
-        server.url()
+        view.url()
     );
-    Ok(Some(server))
+    Ok(Some(view))
 }
 
 /// Stops the live view after the run, saying what it could not send.
-pub fn finish(server: Option<LiveServer>) {
-    let Some(server) = server else { return };
-    let stats = server.shutdown();
+pub fn finish(view: Option<LiveView>) {
+    let Some(view) = view else { return };
+    let stats = view.finish();
     tracing::info!(
         "live: {} messages published, {} images thinned out, {} dropped because the publisher fell behind",
         stats.published,

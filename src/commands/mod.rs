@@ -1,15 +1,15 @@
-//! One module per subcommand; `dispatch` routes to them.
+//! One module per subcommand, `dispatch` routing to them, and what several
+//! commands share (the stop flag).
 
 mod aruco;
 mod bench;
-mod bench_dekf;
-mod bench_live;
 mod calibrate;
 mod collect;
 mod decode;
 mod demo;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod devices;
+pub mod dispatch;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod emulate;
 pub mod eval;
@@ -31,46 +31,6 @@ pub mod vision;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
-
-use anyhow::Result;
-
-use crate::cli::{Cli, Command};
-
-/// Runs the command the user asked for.
-pub fn dispatch(cli: Cli) -> Result<()> {
-    let quiet = cli.quiet;
-    match cli.command {
-        Command::Collect(args) => collect::run(&args, quiet),
-        Command::Record(args) => record::run(&args, quiet),
-        Command::Info(args) => info::run(&args),
-        Command::Export(args) => export::run(&args),
-        Command::Plot(args) => plot::run(&args),
-        Command::Demo(args) => demo::run(&args, quiet),
-        Command::Bench(args) => bench::run(&args),
-        Command::Objects => objects::run(),
-        Command::Train(args) => train::run(&args, quiet),
-        Command::Replay(args) => replay::run_cmd(&args),
-        Command::Eval(args) => eval::run_cmd(&args),
-        Command::Slip(args) => slip::run(&args),
-        Command::Track(args) => track::run(&args, quiet),
-        Command::Study(args) => study::run(&args, quiet),
-        Command::Vision(args) => vision::run(&args, quiet),
-        Command::Label(args) => label::run(&args, quiet),
-        Command::Calibrate(args) => calibrate::run(&args, quiet),
-        Command::Aruco(args) => aruco::run(&args),
-        #[cfg(all(feature = "devices", target_os = "linux"))]
-        Command::Devices(args) => devices::run(&args),
-        #[cfg(not(all(feature = "devices", target_os = "linux")))]
-        Command::Devices(_) => Err(without_devices("devices")),
-        Command::Decode(args) => decode::run(&args, quiet),
-        Command::Import(args) => import::run(&args, quiet),
-        #[cfg(all(feature = "devices", target_os = "linux"))]
-        Command::Emulate(args) => emulate::run(&args),
-        #[cfg(not(all(feature = "devices", target_os = "linux")))]
-        Command::Emulate(_) => Err(without_devices("emulate")),
-        Command::Play(args) => play::run(&args),
-    }
-}
 
 /// The error of a command that needs the device backends in a build without them.
 #[cfg(not(all(feature = "devices", target_os = "linux")))]

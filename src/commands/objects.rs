@@ -1,15 +1,14 @@
 //! `slidetrack objects`: the built-in objects of the simulated rig.
 
 use anyhow::Result;
-use slidetrack_sim::{BUILTIN_OBJECTS, ObjectConfig};
+use slidetrack_experiment::trial_inputs::builtin_objects;
 
 pub fn run() -> Result<()> {
     println!(
         "{:<9} {:>8} {:>6} {:>6} {:>16} {:>8}  description",
         "object", "mass kg", "mu_s", "mu_k", "grasp counts", "period"
     );
-    for (name, _) in BUILTIN_OBJECTS {
-        let o = ObjectConfig::load(name)?;
+    for o in builtin_objects()? {
         let e = &o.experiment;
         println!(
             "{:<9} {:>8.3} {:>6.2} {:>6.2} {:>7.0}..{:<7.0} {:>6.1} s  {}",

@@ -3,7 +3,7 @@
 use std::sync::atomic::Ordering;
 
 use anyhow::{Result, bail};
-use slidetrack_live::{PlayOptions, play};
+use slidetrack_experiment::live_view::{PlayOptions, play};
 
 use crate::cli::PlayArgs;
 

@@ -3,11 +3,11 @@
 
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use slidetrack_core::TimeNs;
 use slidetrack_experiment::record::{RecordEnd, record_devices};
 use slidetrack_experiment::rig::{HandUse, RigKind, TrialSpec, build_rig_with};
-use slidetrack_experiment::rig_config::RigConfig;
 use slidetrack_experiment::trial::prepare_out_dir;
-use slidetrack_sim::ObjectConfig;
+use slidetrack_experiment::trial_inputs::TrialInputs;
 
 use crate::cli::{RecordArgs, RigArg};
 
@@ -22,8 +22,7 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         RigArg::Hw => RigKind::Hw,
         RigArg::Replay => bail!("record records live devices; a recorded session is already a recording"),
     };
-    let object = ObjectConfig::load(&args.object)?;
-    let rig = RigConfig::load(args.config.as_deref())?;
+    let TrialInputs { object, rig } = TrialInputs::load(&args.object, args.config.as_deref())?;
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         prepare_out_dir(dir)?;
     }
@@ -41,22 +40,8 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         live: None,
     };
     let stop = super::stop_flag("closing the session (the hand is left as it is)");
-    let bar = match (quiet, args.duration) {
-        (true, _) => ProgressBar::hidden(),
-        (false, Some(d)) => ProgressBar::new((d * 1e3) as u64),
-        (false, None) => ProgressBar::new_spinner(),
-    };
-    let template = if args.duration.is_some() {
-        "recording [{bar:30}] {percent:>3}%, {elapsed} (Ctrl-C stops)"
-    } else {
-        "recording {spinner} {msg} (Ctrl-C stops)"
-    };
-    bar.set_style(
-        ProgressStyle::with_template(template)
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    let mut progress = |t: slidetrack_core::TimeNs| {
+    let bar = progress_bar(args, quiet);
+    let mut progress = |t: TimeNs| {
         let ms = (t.as_secs_f64() * 1e3) as u64;
         match args.duration {
             Some(_) => bar.set_position(ms.min(bar.length().unwrap_or(ms))),
@@ -79,4 +64,24 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         ),
         RecordEnd::Recording(e) => bail!("recording stopped: {e}; {} is finished", report.path.display()),
     }
+}
+
+/// A bar over `--duration`, or a spinner with the session time without one.
+fn progress_bar(args: &RecordArgs, quiet: bool) -> ProgressBar {
+    let bar = match (quiet, args.duration) {
+        (true, _) => ProgressBar::hidden(),
+        (false, Some(d)) => ProgressBar::new((d * 1e3) as u64),
+        (false, None) => ProgressBar::new_spinner(),
+    };
+    let template = if args.duration.is_some() {
+        "recording [{bar:30}] {percent:>3}%, {elapsed} (Ctrl-C stops)"
+    } else {
+        "recording {spinner} {msg} (Ctrl-C stops)"
+    };
+    bar.set_style(
+        ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
 }

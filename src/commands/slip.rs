@@ -4,9 +4,10 @@
 use std::path::Path;
 
 use anyhow::Result;
-use slidetrack_estimators::slip::GraspDetectorConfig;
 use slidetrack_experiment::dataset::expand;
-use slidetrack_experiment::grasp_eval::{SessionScores, SlipAuc, SlipReport, SlipSummary, evaluate};
+use slidetrack_experiment::grasp_eval::{
+    GraspDetectorConfig, SessionScores, SlipAuc, SlipReport, SlipSummary, evaluate,
+};
 
 use crate::cli::SlipArgs;
 

@@ -3,11 +3,11 @@
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use slidetrack_estimators::dekf::{Architecture, StateKind};
 use slidetrack_experiment::dataset::{
     ChannelSet, MIN_SCANS, SessionData, TruthSource, expand, load, load_unless_short,
 };
 use slidetrack_experiment::dekf_run::save_model;
+use slidetrack_experiment::dekf_train::model_options::{Architecture, StateKind};
 use slidetrack_experiment::dekf_train::{TrainSpec, Trained, fit_sessions, parse_schedule};
 use slidetrack_experiment::linear_baseline::{LinearBaseline, path_for};
 use slidetrack_experiment::plot::dekf::plot_training_curve;

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::graph::{Cycle, check_crate};
+use super::graph::{Cycle, CycleScope, check_crate};
 use super::layering::{Violation, check_manifest};
 use super::sources::Sources;
 use crate::ALLOWED_DEPENDENCIES;
@@ -11,11 +11,16 @@ use crate::ALLOWED_DEPENDENCIES;
 /// The root file of the synthetic crates.
 const LIB: &str = "demo/src/lib.rs";
 
-/// The cross-module cycles of the synthetic crate `files` (rooted at [`LIB`]).
+/// The cycles of the synthetic crate `files` (rooted at [`LIB`]).
 fn cycles(files: &[(&str, &str)]) -> Vec<String> {
+    cycles_of(files, CycleScope::Everywhere)
+}
+
+/// The cycles of `scope` of the synthetic crate `files`.
+fn cycles_of(files: &[(&str, &str)], scope: CycleScope) -> Vec<String> {
     let sources = Sources::from_texts(files);
     assert!(sources.errors.is_empty(), "{:?}", sources.errors);
-    let (tree, _, cycles) = check_crate(Path::new(LIB), &sources);
+    let (tree, _, cycles) = check_crate(Path::new(LIB), &sources, scope);
     assert!(tree.missing.is_empty(), "{:?}", tree.missing);
     cycles.iter().map(Cycle::chain).collect()
 }
@@ -66,17 +71,21 @@ fn finds_a_cycle_through_an_inline_path_in_a_function_body() {
 }
 
 #[test]
-fn allows_a_cycle_inside_one_module() {
+fn finds_a_cycle_inside_one_module_unless_only_across_modules_are_asked_for() {
     let files = [
         (LIB, "pub mod study; pub mod trial;"),
         ("demo/src/study/mod.rs", "mod tables; pub use tables::Table; pub struct Config;"),
         ("demo/src/study/tables.rs", "use super::Config; pub struct Table(Config);"),
         ("demo/src/trial.rs", "use crate::study::Table;"),
     ];
-    assert_eq!(cycles(&files), Vec::<String>::new());
+    assert_eq!(
+        cycles(&files),
+        ["demo/src/study/mod.rs -> demo/src/study/tables.rs -> demo/src/study/mod.rs"]
+    );
+    assert_eq!(cycles_of(&files, CycleScope::AcrossModules), Vec::<String>::new());
     // Not for want of seeing the edges: both directions are in the graph.
     let sources = Sources::from_texts(&files);
-    let (_, graph, _) = check_crate(Path::new(LIB), &sources);
+    let (_, graph, _) = check_crate(Path::new(LIB), &sources, CycleScope::Everywhere);
     assert_eq!(
         graph.via(Path::new("demo/src/study/mod.rs"), Path::new("demo/src/study/tables.rs")),
         Some("tables::Table")
@@ -207,7 +216,7 @@ fn marks_edges_made_only_by_test_code() {
         ),
         ("demo/src/c.rs", "pub fn f() {}"),
     ]);
-    let (_, graph, _) = check_crate(Path::new(LIB), &sources);
+    let (_, graph, _) = check_crate(Path::new(LIB), &sources, CycleScope::Everywhere);
     let edge = |from: &str, to: &str| graph.edge(Path::new(from), Path::new(to)).expect("an edge");
     let a_b = edge("demo/src/a.rs", "demo/src/b.rs");
     assert_eq!((a_b.via.as_str(), a_b.line, a_b.test_only), ("crate::b::B", 3, true));

@@ -1,5 +1,5 @@
 //! The file-level import graph of one crate, and the import cycles in it
-//! that cross from one top-level module to another.
+//! (all of them, or those that cross from one top-level module to another).
 
 use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
@@ -31,7 +31,16 @@ pub struct Edge {
     pub test_only: bool,
 }
 
-/// An import cycle across top-level modules: files, the first one repeated at the end.
+/// Which import cycles a check looks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CycleScope {
+    /// Every cycle, inside one top-level module too.
+    Everywhere,
+    /// Only cycles with an edge between two top-level modules.
+    AcrossModules,
+}
+
+/// An import cycle: files, the first one repeated at the end.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Cycle {
     /// The chain of files, e.g. `[trial.rs, hw_rig.rs, trial.rs]`.
@@ -112,13 +121,15 @@ impl FileGraph {
         None
     }
 
-    /// The import cycles that cross modules: for each edge between files
-    /// of two different top-level modules that lies on a cycle, the shortest
-    /// such cycle, each listed once.
-    pub fn cross_module_cycles(&self) -> BTreeSet<Cycle> {
+    /// The import cycles: for each edge that lies on a cycle, the shortest
+    /// such cycle, each listed once. With [`CycleScope::AcrossModules`],
+    /// only the edges between files of two different top-level modules count
+    /// (a cycle inside one module, `study/mod.rs <-> study/tables.rs`, is
+    /// left out).
+    pub fn cycles(&self, scope: CycleScope) -> BTreeSet<Cycle> {
         let mut cycles = BTreeSet::new();
         for (from, to) in self.edges.keys() {
-            if self.module_of.get(from) == self.module_of.get(to) {
+            if scope == CycleScope::AcrossModules && self.module_of.get(from) == self.module_of.get(to) {
                 continue;
             }
             if let Some(back) = self.shortest_path(to, from) {
@@ -230,11 +241,15 @@ impl<'t> Resolver<'t> {
     }
 }
 
-/// The cross-module cycles of the crate whose root file is `root_file`,
+/// The cycles (of `scope`) of the crate whose root file is `root_file`,
 /// with the graph they were found in.
-pub fn check_crate(root_file: &Path, sources: &Sources) -> (ModuleTree, FileGraph, BTreeSet<Cycle>) {
+pub fn check_crate(
+    root_file: &Path,
+    sources: &Sources,
+    scope: CycleScope,
+) -> (ModuleTree, FileGraph, BTreeSet<Cycle>) {
     let tree = ModuleTree::build(root_file, sources);
     let graph = FileGraph::build(&tree, sources);
-    let cycles = graph.cross_module_cycles();
+    let cycles = graph.cycles(scope);
     (tree, graph, cycles)
 }

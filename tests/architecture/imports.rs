@@ -4,14 +4,14 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use super::graph::{Cycle, FileGraph, check_crate};
+use super::graph::{Cycle, CycleScope, FileGraph, check_crate};
 use super::sources::{Sources, Workspace};
 
 /// What the import check found in a workspace.
 #[derive(Default)]
 pub struct ImportReport {
-    /// Each cross-module cycle (by its chain), with the path that makes
-    /// each of its edges, e.g. `a.rs -> b.rs: crate::b::Thing`.
+    /// Each import cycle (by its chain), with the path that makes each of
+    /// its edges, e.g. `a.rs -> b.rs: crate::b::Thing`.
     pub cycles: BTreeMap<String, Vec<String>>,
     /// Files that do not parse.
     pub parse_errors: Vec<String>,
@@ -23,14 +23,16 @@ pub struct ImportReport {
     pub crates: usize,
 }
 
-/// Runs the import check on every target of every package of `workspace`.
-pub fn check_workspace(workspace: &Workspace) -> ImportReport {
+/// Runs the import check on every target of every package of `workspace`,
+/// looking for the cycles of `scope_of(package name)`.
+pub fn check_workspace(workspace: &Workspace, scope_of: impl Fn(&str) -> CycleScope) -> ImportReport {
     let sources = Sources::parse(&workspace.texts);
     let mut report = ImportReport { parse_errors: sources.errors.clone(), ..ImportReport::default() };
     let mut reached = BTreeSet::new();
     for package in &workspace.packages {
+        let scope = scope_of(&package.name);
         for root in &package.target_roots {
-            let (tree, graph, cycles) = check_crate(root, &sources);
+            let (tree, graph, cycles) = check_crate(root, &sources, scope);
             report.crates += 1;
             reached.extend(tree.modules.iter().map(|m| m.file.clone()));
             report.missing_files.extend(tree.missing.iter().cloned());
@@ -65,8 +67,8 @@ impl ImportReport {
     /// The cycles as a readable list, one chain and its edges per cycle.
     pub fn describe_cycles(&self) -> String {
         let mut text = format!(
-            "{} import cycle(s) between files of different top-level modules \
-             (break each by moving the shared item down a layer):\n",
+            "{} import cycle(s) (break each by moving the shared item down a layer, \
+             or into a module of its own):\n",
             self.cycles.len()
         );
         for (chain, edges) in &self.cycles {

@@ -1,28 +1,26 @@
 //! `slidetrack vision eval`: the trackers scored against ground truth.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::Serialize;
-use slidetrack_estimators::metrics::{SequenceMetrics, perturbed_start};
-use slidetrack_experiment::vision_sim::{evaluate_variant, maskukf_on_sequence};
-use slidetrack_sim::rgbd::{FastSequenceConfig, SimObjectKind};
-use slidetrack_vision::eval::{Scored, Variant, errors, track};
-use slidetrack_vision::sources::SlowNetworkConfig;
-use slidetrack_vision::{TrackerSettings, build_tracker};
+use slidetrack_experiment::vision::eval::{
+    EvalStep, InputEvalOptions, ScoreRow, SimulatedEvalOptions, inputs, simulated,
+};
 
-use super::inputs::{InputOptions, Prepared, prepare};
 use crate::cli::VisionEvalArgs as EvalArgs;
 
-/// One row of the results.
-#[derive(Debug, Serialize)]
-struct Row {
-    label: String,
-    #[serde(flatten)]
-    metrics: SequenceMetrics,
-}
-
 pub fn run(args: &EvalArgs, quiet: bool) -> Result<()> {
-    let rows = if args.input.is_empty() { simulated(args, quiet)? } else { inputs(args)? };
+    let rows = if args.input.is_empty() {
+        simulated_rows(args, quiet)?
+    } else {
+        inputs(&InputEvalOptions {
+            inputs: &args.input,
+            kind: args.tracker.kind(),
+            model: args.model.as_deref(),
+            object: args.object.as_deref(),
+            measurements: args.measurements.into(),
+            init: args.init.into(),
+        })?
+    };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
     } else {
@@ -31,103 +29,30 @@ pub fn run(args: &EvalArgs, quiet: bool) -> Result<()> {
     Ok(())
 }
 
-/// The simulated fast sequences of `args`.
-fn sequences(args: &EvalArgs) -> Result<Vec<FastSequenceConfig>> {
-    let kinds: Vec<SimObjectKind> = if args.objects.is_empty() {
-        SimObjectKind::ALL.to_vec()
-    } else {
-        args.objects
-            .iter()
-            .map(|o| SimObjectKind::from_name(o).with_context(|| format!("unknown object '{o}'")))
-            .collect::<Result<_>>()?
+/// The simulated sequences of `args`, scored, with a progress bar.
+fn simulated_rows(args: &EvalArgs, quiet: bool) -> Result<Vec<ScoreRow>> {
+    let options = SimulatedEvalOptions {
+        sequences: args.sequences,
+        objects: args.objects.clone(),
+        duration_s: args.duration,
+        seed: args.seed,
+        ablation: args.ablation,
     };
-    anyhow::ensure!(args.duration >= 1.0, "--duration must be at least 1 s");
-    let mut out = Vec::new();
-    for (i, kind) in kinds.iter().enumerate() {
-        for s in 0..args.sequences.max(1) {
-            let seed = args.seed + (i * args.sequences.max(1) + s) as u64;
-            out.push(FastSequenceConfig::new(*kind, args.duration, seed));
+    let mut bar = ProgressBar::hidden();
+    let style = ProgressStyle::with_template("{bar:40} {pos}/{len} {msg}")?;
+    let rows = simulated(&options, &mut |step| match step {
+        EvalStep::Total(n) => {
+            bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(n) };
+            bar.set_style(style.clone());
         }
-    }
-    Ok(out)
-}
-
-fn simulated(args: &EvalArgs, quiet: bool) -> Result<Vec<Row>> {
-    let configs = sequences(args)?;
-    let network = SlowNetworkConfig::default();
-    let settings = TrackerSettings::default();
-    let variants: Vec<Variant> =
-        if args.ablation { Variant::TABLE_5_6.to_vec() } else { vec![Variant::Roft, Variant::Network] };
-    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(variants.len() as u64 + 1) };
-    bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} {msg}")?);
-    let mut rows = Vec::new();
-    for v in variants {
-        bar.set_message(v.label());
-        let r = evaluate_variant(v, &configs, &network, &settings)?;
-        rows.push(Row { label: r.label.to_string(), metrics: r.metrics });
-        bar.inc(1);
-    }
-    // MaskUKF with the true masks of every frame, started 5 cm and 10 degrees
-    // off, on the fast sequences and on the same paths at YCB-Video-like
-    // speeds (15 cm/s, 45 deg/s), for which its motion model is tuned.
-    bar.set_message("MaskUKF");
-    for (label, slow) in
-        [("MaskUKF (true masks, start 5 cm / 10 deg off)", false), ("MaskUKF (same, YCB-Video speeds)", true)]
-    {
-        let mut all = Vec::new();
-        for c in &configs {
-            let mut c = c.clone();
-            if slow {
-                c.motion.max_speed_mps = c.motion.max_speed_mps.min(0.15);
-                c.motion.max_angular_speed_dps = c.motion.max_angular_speed_dps.min(45.0);
-            }
-            let first = slidetrack_sim::rgbd::FastSequence::new(c.clone())?.truth(0).camera_from_object;
-            let (frames, model) = maskukf_on_sequence(&c, perturbed_start(&first), &settings)?;
-            all.extend(errors(&frames, 0, Scored::Tracker, &*model.object_points()?));
-        }
-        rows.push(Row { label: label.into(), metrics: slidetrack_estimators::metrics::summarize(&all) });
-    }
+        EvalStep::Start(label) => bar.set_message(label.to_string()),
+        EvalStep::Done => bar.inc(1),
+    })?;
     bar.finish_and_clear();
     Ok(rows)
 }
 
-fn inputs(args: &EvalArgs) -> Result<Vec<Row>> {
-    let model =
-        args.model.as_deref().context("--input needs --model (a file, or `sim` for simulated sessions)")?;
-    let mut rows = Vec::new();
-    let mut all = Vec::new();
-    for input in &args.input {
-        let options = InputOptions {
-            model,
-            model_scale: 1.0,
-            object: args.object.as_deref(),
-            measurements: args.measurements,
-            init: args.init,
-            recover: false,
-            aruco_config: None,
-            external: None,
-        };
-        let Prepared { mut source, mut measurements, model, intrinsics, initial_pose } =
-            prepare(input, &options)?;
-        let settings = TrackerSettings { initial_pose, ..TrackerSettings::default() };
-        let mut tracker = build_tracker(args.tracker.kind(), &model, &intrinsics, &settings)?;
-        let frames = track(source.as_mut(), measurements.as_mut(), Some(tracker.as_mut()), |_, _| {})?;
-        anyhow::ensure!(!frames.is_empty(), "{}: no frame has a true pose to score against", input.display());
-        let first = frames.iter().position(|f| f.estimate.is_some()).unwrap_or(0);
-        let e = errors(&frames, first, Scored::Tracker, &*model.object_points()?);
-        rows.push(Row {
-            label: input.display().to_string(),
-            metrics: slidetrack_estimators::metrics::summarize(&e),
-        });
-        all.extend(e);
-    }
-    if args.input.len() > 1 {
-        rows.push(Row { label: "ALL".into(), metrics: slidetrack_estimators::metrics::summarize(&all) });
-    }
-    Ok(rows)
-}
-
-fn print_table(rows: &[Row]) {
+fn print_table(rows: &[ScoreRow]) {
     let width = rows.iter().map(|r| r.label.len()).max().unwrap_or(10).max(10);
     println!(
         "{:width$}  {:>7}  {:>7}  {:>8}  {:>9}  {:>10}  {:>10}",

@@ -1,11 +1,8 @@
 //! `slidetrack vision`: the vision trackers MaskUKF and ROFT (thesis
 //! Chapters 4 and 5) on simulated, recorded and dataset RGB-D input.
 
-pub(crate) mod camera_vision;
 mod eval;
-mod inputs;
 mod live;
-pub(crate) mod live_camera;
 mod simulate;
 mod track;
 
@@ -17,6 +14,7 @@ use crate::cli::{VisionArgs, VisionCommand};
 pub fn run(args: &VisionArgs, quiet: bool) -> Result<()> {
     match &args.command {
         VisionCommand::Simulate(a) => simulate::run(a, quiet),
+        VisionCommand::Track(a) if a.input.is_none() => live::run(a, quiet),
         VisionCommand::Track(a) => track::run(a, quiet),
         VisionCommand::Eval(a) => eval::run(a, quiet),
     }

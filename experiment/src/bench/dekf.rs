@@ -1,4 +1,4 @@
-//! `slidetrack bench --what dekf,dekf-training`: the dEKF's speed against the
+//! The dEKF's speed (`bench --what dekf,dekf-training`) against the
 //! targets of the dEKF issue: one online step (derivative filter included) at
 //! most 20 us on one core (the thesis ran at 119 Hz), and training on a
 //! thesis-sized set (50 sessions of 60 s at 30 Hz, 25 epochs) at most 180 s
@@ -13,30 +13,19 @@ use rand::SeedableRng;
 use serde_json::{Value, json};
 use slidetrack_estimators::dekf::{DekfModel, DekfTracker, Measurement, ModelMeta, StateKind};
 use slidetrack_estimators::derivative::DerivativeFilterConfig;
-use slidetrack_experiment::dataset::{ChannelSet, TruthSource, load};
-use slidetrack_experiment::dekf_train::TrainSpec;
-use slidetrack_experiment::rig::TrialSpec;
-use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_experiment::trial::{run_sim_trial, session_file_name};
 use slidetrack_sim::ObjectConfig;
+
+use super::median;
+use crate::dataset::{ChannelSet, SessionData, TruthSource, load};
+use crate::dekf_train::{TrainSpec, Trained};
+use crate::rig::TrialSpec;
+use crate::rig_config::RigConfig;
+use crate::trial::{run_sim_trial, session_file_name};
 
 /// Target time of one online step (s).
 const STEP_TARGET_S: f64 = 20e-6;
 /// Target time of a thesis-sized training (s).
 const TRAINING_TARGET_S: f64 = 180.0;
-
-fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        f64::NAN
-    } else if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
 
 /// Time per online step of an `xy` model filtering every scan, median of `runs`.
 pub fn step(runs: usize) -> Result<Value> {
@@ -113,8 +102,13 @@ fn thesis_sized_set(dir: &Path, n: u32, duration_s: f64) -> Result<Vec<PathBuf>>
 }
 
 /// Trains the default schedule on 50 simulated sessions of 60 s with
-/// `threads` workers, `runs` times; reports the median.
-pub fn training(dir: &Path, runs: usize, threads: usize, quiet: bool) -> Result<Value> {
+/// `threads` workers, `runs` times, each with `fit`; reports the median.
+pub fn training(
+    dir: &Path,
+    runs: usize,
+    threads: usize,
+    fit: &mut dyn FnMut(&TrainSpec, &[SessionData]) -> Result<Trained>,
+) -> Result<Value> {
     let collected = Instant::now();
     let files = thesis_sized_set(dir, 50, 60.0)?;
     let collect_s = collected.elapsed().as_secs_f64();
@@ -130,7 +124,7 @@ pub fn training(dir: &Path, runs: usize, threads: usize, quiet: bool) -> Result<
     let mut steps = 0;
     let mut rmse = [f64::NAN; 2];
     for _ in 0..runs.max(1) {
-        let trained = super::train::fit_with_progress(&spec, &sessions, quiet)?;
+        let trained = fit(&spec, &sessions)?;
         seconds.push(trained.seconds);
         steps = trained.model.meta.training["steps"].as_u64().unwrap_or(0);
         rmse = trained.epochs.last().map_or(rmse, |e| e.rmse);

@@ -1,4 +1,4 @@
-//! `slidetrack bench --what collect-live`: what `--live` costs `collect`
+//! What `--live` costs `collect` (`bench --what collect-live`)
 //! when a viewer subscribes to every channel and never reads (the worst
 //! viewer), against the same trials without `--live` (target: at most 10 %
 //! slower).
@@ -8,25 +8,17 @@ use std::time::Duration;
 
 use anyhow::Result;
 use serde_json::json;
-use slidetrack_experiment::rig::TrialSpec;
-use slidetrack_experiment::rig_config::RigConfig;
-use slidetrack_experiment::trial::run_sim_trial;
 use slidetrack_live::{LiveOptions, LiveServer, StalledViewer};
 use slidetrack_session::{ReadOptions, SessionInfo};
 use slidetrack_sim::ObjectConfig;
 
-use crate::cli::BenchArgs;
+use super::{BenchOptions, median};
+use crate::rig::TrialSpec;
+use crate::rig_config::RigConfig;
+use crate::trial::run_sim_trial;
 
 /// Least ratio of the real-time factor with `--live` to the one without.
 const RATIO_TARGET: f64 = 0.9;
-
-/// Median of `v`.
-fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
-}
 
 /// One pair of measurements: the same trials with and without `--live`.
 struct Pair {
@@ -64,9 +56,13 @@ impl Pair {
 }
 
 /// Runs the trials, alternating without and with `--live` so that drifts of
-/// the machine hit both alike.
-pub fn measure(args: &BenchArgs, dir: &std::path::Path) -> Result<Vec<serde_json::Value>> {
-    slidetrack_calibration::use_one_thread();
+/// the machine hit both alike; `on_line` gets one line per pair.
+pub fn measure(
+    args: &BenchOptions,
+    dir: &std::path::Path,
+    on_line: &mut dyn FnMut(String),
+) -> Result<Vec<serde_json::Value>> {
+    crate::bench::use_one_thread();
     let rig = RigConfig::default();
     let object = ObjectConfig::load("box")?;
     let stop = AtomicBool::new(false);
@@ -96,7 +92,7 @@ pub fn measure(args: &BenchArgs, dir: &std::path::Path) -> Result<Vec<serde_json
             Pair { label, session_s: 0.0, without_s: Vec::new(), with_s: Vec::new(), published: 0 };
         for run in 0..args.runs.max(1) {
             for live in [false, true] {
-                let spec = spec(run, live, args.duration);
+                let spec = spec(run, live, args.duration_s);
                 let report = run_sim_trial(&spec, &stop, &mut |_| {})?;
                 if live { &mut pair.with_s } else { &mut pair.without_s }.push(report.wall_s);
                 pair.session_s = report.outcome.end.as_secs_f64();
@@ -110,35 +106,22 @@ pub fn measure(args: &BenchArgs, dir: &std::path::Path) -> Result<Vec<serde_json
             anyhow::bail!("the viewer subscribed to {subscribed} of {channels} channels");
         }
         out.push(pair.to_json());
-        if !args.json {
-            println!(
-                "  {label:<32} without --live {:>7.1}x real time, with --live and a stalled viewer {:>7.1}x: ratio {:.3} (target >= {RATIO_TARGET}): {}",
-                pair.rtf(&pair.without_s),
-                pair.rtf(&pair.with_s),
-                pair.ratio(),
-                if pair.ratio() >= RATIO_TARGET { "PASS" } else { "FAIL" }
-            );
-        }
+        on_line(format!(
+            "  {label:<32} without --live {:>7.1}x real time, with --live and a stalled viewer {:>7.1}x: ratio {:.3} (target >= {RATIO_TARGET}): {}",
+            pair.rtf(&pair.without_s),
+            pair.rtf(&pair.with_s),
+            pair.ratio(),
+            if pair.ratio() >= RATIO_TARGET { "PASS" } else { "FAIL" }
+        ));
     }
     Ok(out)
 }
 
 /// The header line of the text report.
-pub fn header(args: &BenchArgs, cpu: usize) -> String {
+pub fn header(args: &BenchOptions, cpu: usize) -> String {
     format!(
         "collect-live: box, {} s of sliding cycles, pinned to CPU {cpu}, median of {} runs each; the viewer subscribes to every channel (every image) and never reads",
-        args.duration,
+        args.duration_s,
         args.runs.max(1)
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_median_of_an_even_count_is_the_mean_of_the_middle_two() {
-        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
-    }
 }

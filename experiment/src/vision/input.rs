@@ -1,5 +1,5 @@
-//! Turning `--input`, `--model`, `--measurements` and `--init` into a frame
-//! source, a measurement source, a model and a starting pose.
+//! The input of a tracking run (a session or a YCB-Video-style directory),
+//! its measurement source, the object model and the starting pose.
 
 use std::path::Path;
 
@@ -9,14 +9,14 @@ use slidetrack_core::CameraIntrinsics;
 use slidetrack_estimators::metrics::perturbed_start;
 use slidetrack_session::{ReadOptions, SessionInfo};
 use slidetrack_sim::rgbd::SimObjectKind;
-use slidetrack_vision::ObjectModel;
 use slidetrack_vision::input::{RgbdSample, RgbdSource, SessionRgbd, YCB_CLASSES, YcbDirectory};
 use slidetrack_vision::sources::{
     ArucoConfig, ArucoSource, ExternalConfig, ExternalSource, FileSequence, MeasurementSource,
     SessionMeasurements, SlowNetwork, SlowNetworkConfig, TruthSource,
 };
+use slidetrack_vision::{ObjectModel, PoseReset, TrackerKind, VisionError};
 
-use crate::cli::{InitArg, MeasurementsArg};
+use super::{Measurements, TrackerStart};
 
 /// Everything a tracking run needs.
 pub struct Prepared {
@@ -33,12 +33,20 @@ pub struct Prepared {
 }
 
 /// Options of an input.
+#[derive(Clone)]
 pub struct InputOptions<'a> {
+    /// The object model: a file, a simulated object's name, or `sim` for the
+    /// object of a simulated session.
     pub model: &'a str,
+    /// Scale of the model's coordinates to metres (0.001 for millimetres).
     pub model_scale: f64,
+    /// The YCB-Video class of a directory: its name or 1-based index.
     pub object: Option<&'a str>,
-    pub measurements: MeasurementsArg,
-    pub init: InitArg,
+    /// Where masks and poses come from.
+    pub measurements: Measurements,
+    /// How the tracker starts.
+    pub init: TrackerStart,
+    /// Read a truncated session up to its last complete chunk.
     pub recover: bool,
     /// The marker configuration of `--measurements aruco`.
     pub aruco_config: Option<&'a Path>,
@@ -71,20 +79,20 @@ pub fn prepare(input: &Path, o: &InputOptions<'_>) -> Result<Prepared> {
         };
     let intrinsics = source.intrinsics().clone();
     let measurements: Box<dyn MeasurementSource> = match o.measurements {
-        MeasurementsArg::Input => input_measurements,
-        MeasurementsArg::Network => Box::new(SlowNetwork::new(SlowNetworkConfig::default())),
-        MeasurementsArg::Truth => Box::new(TruthSource { masks: true, poses: true }),
-        MeasurementsArg::Aruco | MeasurementsArg::External => own_measurements(o, &model, &intrinsics)?,
+        Measurements::Input => input_measurements,
+        Measurements::Network => Box::new(SlowNetwork::new(SlowNetworkConfig::default())),
+        Measurements::Truth => Box::new(TruthSource { masks: true, poses: true }),
+        Measurements::Aruco | Measurements::External => own_measurements(o, &model, &intrinsics)?,
     };
     let mut source = Peeked::new(source);
     let initial_pose = match o.init {
-        InitArg::Measurement => None,
-        InitArg::Truth | InitArg::Perturbed => {
+        TrackerStart::Measurement => None,
+        TrackerStart::Truth | TrackerStart::Perturbed => {
             let first = source.peek()?.and_then(|s| s.truth.map(|t| t.camera_from_object));
             let truth = first.with_context(|| {
                 format!("{}: the first frame has no true pose for --init", input.display())
             })?;
-            Some(if o.init == InitArg::Perturbed { perturbed_start(&truth) } else { truth })
+            Some(if o.init == TrackerStart::Perturbed { perturbed_start(&truth) } else { truth })
         }
     };
     Ok(Prepared { source: Box::new(source), measurements, model, intrinsics, initial_pose })
@@ -99,14 +107,14 @@ pub fn own_measurements(
     intrinsics: &CameraIntrinsics,
 ) -> Result<Box<dyn MeasurementSource>> {
     Ok(match o.measurements {
-        MeasurementsArg::Aruco => {
+        Measurements::Aruco => {
             let path = o.aruco_config.context("--measurements aruco needs --aruco-config FILE")?;
             let config = ArucoConfig::load(path)?;
             let source = ArucoSource::new(config, model, intrinsics)
                 .with_context(|| format!("{}: unusable ArUco configuration", path.display()))?;
             Box::new(source)
         }
-        MeasurementsArg::External => {
+        Measurements::External => {
             let config = o.external.clone().context("--measurements external needs --listen ADDR")?;
             let source = ExternalSource::listen(config, intrinsics)?;
             eprintln!("external source: listening on {}", source.local_addr());
@@ -117,11 +125,8 @@ pub fn own_measurements(
 }
 
 /// `--pose-reset` is MaskUKF's: refused with another tracker.
-pub fn check_pose_reset(
-    reset: Option<slidetrack_vision::PoseReset>,
-    kind: slidetrack_vision::TrackerKind,
-) -> Result<()> {
-    if reset.is_some() && kind != slidetrack_vision::TrackerKind::MaskUkf {
+pub fn check_pose_reset(reset: Option<PoseReset>, kind: TrackerKind) -> Result<()> {
+    if reset.is_some() && kind != TrackerKind::MaskUkf {
         bail!("--pose-reset is MaskUKF's: ROFT corrects with every pose it is given");
     }
     Ok(())
@@ -192,7 +197,7 @@ impl RgbdSource for Peeked {
         self.inner.intrinsics()
     }
 
-    fn next_frame(&mut self) -> Result<Option<RgbdSample>, slidetrack_vision::VisionError> {
+    fn next_frame(&mut self) -> Result<Option<RgbdSample>, VisionError> {
         match self.first.take() {
             Some(first) => Ok(first),
             None => self.inner.next_frame(),

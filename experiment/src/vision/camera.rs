@@ -162,8 +162,8 @@ fn open_v4l2(
     rig_dir: &Path,
     clock: Arc<dyn Clock>,
 ) -> Result<LiveCamera> {
+    use crate::rig::v4l2_intrinsics;
     use slidetrack_drivers::V4l2Camera;
-    use slidetrack_experiment::rig::v4l2_intrinsics;
     let node = |n: &slidetrack_drivers::config::V4l2CameraConfig,
                 field: &str|
      -> Result<(V4l2Camera, slidetrack_core::CameraIntrinsics)> {
@@ -201,7 +201,10 @@ fn open_v4l2(
     _: &Path,
     _: Arc<dyn Clock>,
 ) -> Result<LiveCamera> {
-    Err(crate::commands::without_devices("a V4L2 RGB-D camera (`[rgbd] kind = \"v4l2\"`)"))
+    anyhow::bail!(
+        "a V4L2 RGB-D camera (`[rgbd] kind = \"v4l2\"`) needs the real devices' backends, and this slidetrack \
+         was built without them (the `devices` feature, Linux only)"
+    )
 }
 
 #[cfg(test)]
