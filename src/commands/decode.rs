@@ -29,9 +29,9 @@ pub fn run(args: &DecodeArgs, quiet: bool) -> Result<()> {
         bail!("{} already exists; pass --overwrite to replace it", args.out.display());
     }
     let configured = configured_tactile(args.config.as_deref())?;
-    let (input, kind) = match (&args.can_log, &args.serial_capture) {
-        (Some(p), None) => (p, "can-log"),
-        (None, Some(p)) => (p, "serial-capture"),
+    let (input, can_log) = match (&args.can_log, &args.serial_capture) {
+        (Some(p), None) => (p, true),
+        (None, Some(p)) => (p, false),
         _ => bail!("give exactly one of --can-log and --serial-capture"),
     };
     let file = File::open(input).with_context(|| format!("cannot open {}", input.display()))?;
@@ -44,60 +44,80 @@ pub fn run(args: &DecodeArgs, quiet: bool) -> Result<()> {
     );
     let reader = bar.wrap_read(file);
     let name = input.display().to_string();
-    let summary = if kind == "can-log" {
-        let mut cfg = configured.as_ref().and_then(TactileDevice::as_can).cloned().unwrap_or_default();
-        if let Some(t) = args.taxels {
-            cfg.taxels = t;
-        }
-        check(TactileDevice::Can(cfg.clone()))?;
-        let mut decoder = CanLogDecoder::new(reader, &cfg, args.interface.clone())
-            .context("the decoder configuration")?
-            .with_deltas(args.time_deltas);
-        let info = tactile_info(&name, cfg.rate_hz, &cfg.sensors, &cfg.fingers);
-        let mut out = Output::create(args, &info, &TactileDevice::Can(cfg.clone()))?;
-        while let Some(sample) = decoder.next() {
-            out.scan(&sample, &decoder.counters())?;
-        }
-        if let Some((line, why)) = decoder.first_error() {
-            tracing::warn!("{name} line {line}: {why} ({} lines skipped)", decoder.bad_lines());
-        }
-        let extra = format!("{} lines, {} unreadable", decoder.lines(), decoder.bad_lines());
-        let timing = if decoder.untimed_frames() > 0 {
-            "log order: frames without a time spaced as if at the configured rate_hz"
-        } else if args.time_deltas {
-            "capture timestamps (gaps since the previous frame)"
-        } else {
-            "capture timestamps"
-        };
-        out.finish(kind, &name, timing, &decoder.counters(), &extra)?
+    let summary = if can_log {
+        decode_can_log(args, configured.as_ref(), reader, &name)?
     } else {
-        let mut cfg = configured.as_ref().and_then(TactileDevice::as_serial).cloned().unwrap_or_default();
-        let rate_hz = args.rate.unwrap_or(cfg.rate_hz);
-        if !(rate_hz.is_finite() && rate_hz > 0.0) {
-            bail!("--rate must be a positive scan rate in Hz, got {rate_hz}");
-        }
-        cfg.rate_hz = rate_hz;
-        check(TactileDevice::Serial(cfg.clone()))?;
-        let mut decoder = SerialCaptureDecoder::new(reader, &cfg, rate_hz);
-        let info = tactile_info(&name, rate_hz, &cfg.sensors, &cfg.fingers);
-        let mut out = Output::create(args, &info, &TactileDevice::Serial(cfg.clone()))?;
-        while let Some(sample) = decoder.next() {
-            out.scan(&sample, &decoder.counters())?;
-        }
-        if let Some(e) = decoder.error() {
-            bail!("reading {name} failed after {} bytes: {e}", decoder.bytes());
-        }
-        let extra = format!(
-            "{} bytes, {} trailing bytes in no complete frame",
-            decoder.bytes(),
-            decoder.trailing_bytes()
-        );
-        let timing = format!("scan counter at {rate_hz} Hz");
-        out.finish(kind, &name, &timing, &decoder.counters(), &extra)?
+        decode_serial_capture(args, configured.as_ref(), reader, &name)?
     };
     bar.finish_and_clear();
     println!("{summary}");
     Ok(())
+}
+
+/// Decodes a can-utils log into a session; returns the summary line.
+fn decode_can_log(
+    args: &DecodeArgs,
+    configured: Option<&TactileDevice>,
+    reader: impl std::io::Read,
+    name: &str,
+) -> Result<String> {
+    let mut cfg = configured.and_then(TactileDevice::as_can).cloned().unwrap_or_default();
+    if let Some(t) = args.taxels {
+        cfg.taxels = t;
+    }
+    check(TactileDevice::Can(cfg.clone()))?;
+    let mut decoder = CanLogDecoder::new(reader, &cfg, args.interface.clone())
+        .context("the decoder configuration")?
+        .with_deltas(args.time_deltas);
+    let info = tactile_info(name, cfg.rate_hz, &cfg.sensors, &cfg.fingers);
+    let mut out = Output::create(args, &info, &TactileDevice::Can(cfg.clone()))?;
+    while let Some(sample) = decoder.next() {
+        out.scan(&sample, &decoder.counters())?;
+    }
+    if let Some((line, why)) = decoder.first_error() {
+        tracing::warn!("{name} line {line}: {why} ({} lines skipped)", decoder.bad_lines());
+    }
+    let extra = format!("{} lines, {} unreadable", decoder.lines(), decoder.bad_lines());
+    let timing = if decoder.untimed_frames() > 0 {
+        "log order: frames without a time spaced as if at the configured rate_hz"
+    } else if args.time_deltas {
+        "capture timestamps (gaps since the previous frame)"
+    } else {
+        "capture timestamps"
+    };
+    out.finish("can-log", name, timing, &decoder.counters(), &extra)
+}
+
+/// Decodes raw serial bytes into a session; returns the summary line.
+fn decode_serial_capture(
+    args: &DecodeArgs,
+    configured: Option<&TactileDevice>,
+    reader: impl std::io::Read,
+    name: &str,
+) -> Result<String> {
+    let mut cfg = configured.and_then(TactileDevice::as_serial).cloned().unwrap_or_default();
+    let rate_hz = args.rate.unwrap_or(cfg.rate_hz);
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        bail!("--rate must be a positive scan rate in Hz, got {rate_hz}");
+    }
+    cfg.rate_hz = rate_hz;
+    check(TactileDevice::Serial(cfg.clone()))?;
+    let mut decoder = SerialCaptureDecoder::new(reader, &cfg, rate_hz);
+    let info = tactile_info(name, rate_hz, &cfg.sensors, &cfg.fingers);
+    let mut out = Output::create(args, &info, &TactileDevice::Serial(cfg.clone()))?;
+    while let Some(sample) = decoder.next() {
+        out.scan(&sample, &decoder.counters())?;
+    }
+    if let Some(e) = decoder.error() {
+        bail!("reading {name} failed after {} bytes: {e}", decoder.bytes());
+    }
+    let extra = format!(
+        "{} bytes, {} trailing bytes in no complete frame",
+        decoder.bytes(),
+        decoder.trailing_bytes()
+    );
+    let timing = format!("scan counter at {rate_hz} Hz");
+    out.finish("serial-capture", name, &timing, &decoder.counters(), &extra)
 }
 
 /// The `[hw.tactile]` table of the rig configuration at `path`. Only that

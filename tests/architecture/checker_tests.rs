@@ -187,10 +187,7 @@ fn keeps_the_simulator_in_dev_dependencies() {
     let found = violations(renamed);
     assert_eq!(found.len(), 1, "{found:?}");
     let message = found[0].to_string();
-    assert!(
-        message.contains("`sim` belongs in [dependencies] only of experiment and slidetrack, elsewhere"),
-        "{message}"
-    );
+    assert!(message.contains("`sim` belongs in [dependencies] only of experiment, elsewhere"), "{message}");
     let in_target = "[package]\nname = \"slidetrack-core\"\n[target.'cfg(unix)'.dev-dependencies]\nslidetrack-sim = \"0.1\"\n";
     assert_eq!(violations(in_target)[0].section, "[target.'cfg(unix)'.dev-dependencies]");
 }
