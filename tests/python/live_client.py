@@ -28,6 +28,8 @@ from websockets.sync.client import connect
 SUBPROTOCOL = "foxglove.sdk.v1"
 OP_MESSAGE_DATA = 0x01
 DECODED_TOPICS = ("/tactile/raw", "/estimate/dekf")
+# Written once as the recording closes: see check().
+LAST_AT_SHUTDOWN = ("/recorder/stats",)
 
 
 def connect_with_retry(url, timeout_s):
@@ -102,7 +104,13 @@ def check(session, channels, messages):
         received[m["topic"]] = received.get(m["topic"], 0) + 1
     for ch in channels.values():
         topic = ch["topic"]
-        if received.get(topic, 0) == 0:
+        # The recorder's statistics are the last message, written as the
+        # recorder closes. The Foxglove SDK sends advertisements ahead of a
+        # viewer's data backlog (separate queues), and stopping the server
+        # drops that backlog, so a viewer still reading images when the
+        # trial ends sees the channel but may miss its one message (the
+        # base binary of issue 25 misses it in about 1 run of 6 on 2 cores).
+        if received.get(topic, 0) == 0 and topic not in LAST_AT_SHUTDOWN:
             raise SystemExit(f"{topic} was advertised but no message of it arrived")
         if topic in schemas and (ch["schemaName"], ch["encoding"]) != schemas[topic]:
             raise SystemExit(f"{topic}: advertised {ch['schemaName']}/{ch['encoding']}, file has {schemas[topic]}")
