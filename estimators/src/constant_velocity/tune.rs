@@ -91,13 +91,31 @@ pub fn tune_noise_jointly(start: &CvParams, sequences: &[&[CvSample]]) -> TunedN
         let l = total(&with(v));
         if l.is_finite() { -l } else { f64::INFINITY }
     };
-    // Nelder-Mead stalls on the ridge where the position walk and the
-    // marker noise trade off; restarting it from its best point with a
-    // fresh, large simplex moves it on, until a restart gains nothing.
-    let mut best = [start.q_position_m2_per_s.ln(), start.q_velocity_m2_per_s3.ln(), start.r_m2.ln()];
+    let start_logs = [start.q_position_m2_per_s.ln(), start.q_velocity_m2_per_s3.ln(), start.r_m2.ln()];
+    let (best, _, evaluations) = nelder_mead_restarted(&cost, start_logs);
+    let params = with(&best);
+    TunedNoise {
+        log_likelihood: total(&params),
+        params,
+        measurements: sequences.iter().flat_map(|s| s.iter()).filter(|s| s.z_m.is_some()).count(),
+        evaluations,
+    }
+}
+
+/// Minimises `cost` from `start` (three log densities) with Nelder-Mead,
+/// restarted from its best point with a fresh, large simplex until a
+/// restart gains under 1e-3 (at most 8 runs): Nelder-Mead stalls on the
+/// ridge where a random walk's density and the measurement noise trade off,
+/// and a restart moves it on. Returns the best point, its cost and the
+/// number of cost evaluations.
+pub(crate) fn nelder_mead_restarted(
+    cost: &impl Fn(&[f64; 3]) -> f64,
+    start: [f64; 3],
+) -> ([f64; 3], f64, usize) {
+    let mut best = start;
     let (mut best_cost, mut evaluations) = (cost(&best), 1);
     for _ in 0..8 {
-        let (x, used) = nelder_mead(&cost, best, 10f64.ln(), 1e-6, 2000);
+        let (x, used) = nelder_mead(cost, best, 10f64.ln(), 1e-6, 2000);
         evaluations += used;
         let c = cost(&x);
         let gained = best_cost - c;
@@ -108,13 +126,7 @@ pub fn tune_noise_jointly(start: &CvParams, sequences: &[&[CvSample]]) -> TunedN
             break;
         }
     }
-    let params = with(&best);
-    TunedNoise {
-        log_likelihood: total(&params),
-        params,
-        measurements: sequences.iter().flat_map(|s| s.iter()).filter(|s| s.z_m.is_some()).count(),
-        evaluations,
-    }
+    (best, best_cost, evaluations)
 }
 
 /// Minimises `f` from `x0` with the Nelder-Mead simplex (reflection 1,

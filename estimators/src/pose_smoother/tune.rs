@@ -25,7 +25,7 @@
 use rayon::prelude::*;
 
 use super::{PoseSample, PoseSmootherParams, log_likelihood};
-use crate::constant_velocity::tune::nelder_mead;
+use crate::constant_velocity::tune::nelder_mead_restarted;
 
 /// The interval every tuned density stays in, in the SI unit of each (m^2/s,
 /// m^2/s^3, m^2, rad^2/s, rad^2/s^3, rad^2): from a standard deviation of
@@ -144,19 +144,6 @@ fn tune_block(
         let l = total(&with(params, block, v));
         if l.is_finite() { -l } else { f64::INFINITY }
     };
-    let mut best = logs(params, block);
-    let (mut best_cost, mut evaluations) = (cost(&best), 1);
-    for _ in 0..8 {
-        let (x, used) = nelder_mead(&cost, best, 10f64.ln(), 1e-6, 2000);
-        evaluations += used;
-        let c = cost(&x);
-        let gained = best_cost - c;
-        if c < best_cost {
-            (best, best_cost) = (x, c);
-        }
-        if gained.is_nan() || gained < 1e-3 {
-            break;
-        }
-    }
+    let (best, best_cost, evaluations) = nelder_mead_restarted(&cost, logs(params, block));
     (with(params, block, &best), -best_cost, evaluations)
 }
