@@ -60,7 +60,7 @@ impl SerialTactile {
         Ok(SerialTactile {
             port,
             device: path.to_string(),
-            info: tactile_info(path, rate_hz, &cfg.sensors, &cfg.fingers),
+            info: tactile_info(path, rate_hz, &cfg.sensors, cfg.fingers.as_ref()),
             decoder: SerialDecoder::new(),
             assembler: ModuleScanAssembler::new(&module_taxels(&cfg.sensors)),
             unwrapper: SequenceUnwrapper::default(),
