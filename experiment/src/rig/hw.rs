@@ -27,7 +27,7 @@ use slidetrack_sim::{
     HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, SimHandMonitor, Stream, stream_seed,
 };
 
-use super::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
+use super::trial::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
 
 /// A one-line description of the devices, for the log.

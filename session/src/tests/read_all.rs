@@ -8,12 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use super::other_channels::log_other_channels;
 use super::*;
 
-use crate as session;
-
-#[path = "read_all_body.rs"]
-mod body;
-
-use body::read_all;
+use super::read_all_body::read_all;
 
 /// A message as compared: topic, log time, sequence and payload.
 type Key = (String, TimeNs, u32, Vec<u8>);
