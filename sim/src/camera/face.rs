@@ -2,8 +2,8 @@
 
 use slidetrack_core::MarkerPattern;
 
-use super::ObjectAppearance;
 use super::blocks::{PlanarPattern, disjoint, in_box, inside};
+use super::object::ObjectAppearance;
 use super::raster::PlaneInCamera;
 
 /// Number of parts before the marker cells: outside the face, face, sticker.

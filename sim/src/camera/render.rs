@@ -8,13 +8,15 @@ use slidetrack_core::{CameraIntrinsics, Frame, Image, MarkerPattern, TimeNs, enc
 
 use super::blocks::{BlockScratch, PlanarPattern, Scene, Target, draw_plane};
 use super::board::{BoardPattern, Chessboard};
+use super::config::SimCameraConfig;
+use super::error::SimCameraError;
 use super::face::FacePattern;
+use super::object::ObjectAppearance;
 use super::raster::{
     FIXED_ONE, PixelRect, PlaneInCamera, UndistortionMap, blur, gaussian_kernel, outline_bbox, quantise,
     to_fixed,
 };
 use super::texture::{BackgroundPlane, Texture, splitmix64};
-use super::{ObjectAppearance, SimCameraConfig, SimCameraError};
 
 /// Renders the simulated camera's frames: the object's marker face in front of
 /// a static textured background, with distortion, blur, noise and JPEG.

@@ -26,7 +26,7 @@ use slidetrack_session::{
     ChannelMessage, MessageReader, ReadOptions, RgbdCalibration, RgbdColor, RgbdDepth, read_channel,
 };
 
-use super::encode_depth_png;
+use super::codec::encode_depth_png;
 use crate::VisionError;
 
 /// Frames a replayed camera holds for a slow reader; older ones are lost.
