@@ -33,6 +33,7 @@ use thiserror::Error;
 
 mod blocks;
 mod board;
+mod board_face;
 mod config;
 mod face;
 mod object;
@@ -44,6 +45,7 @@ mod texture;
 mod tests;
 
 pub use board::Chessboard;
+pub use board_face::BoardPrint;
 pub use config::{BackgroundConfig, SimCameraConfig};
 pub use object::ObjectAppearance;
 pub use render::SimCameraRenderer;
@@ -90,6 +92,17 @@ pub enum SimCameraError {
     /// The marker pattern's bit count does not match its size.
     #[error(transparent)]
     Marker(#[from] BadMarkerPattern),
+    /// The board layout cannot be printed.
+    #[error(transparent)]
+    Board(#[from] slidetrack_core::BadBoardLayout),
+    /// A board's markers do not match its layout (one pattern per marker, all of one size).
+    #[error("the board has {expected} markers but {given} marker patterns of one size were given")]
+    BoardMarkers {
+        /// Markers of the layout.
+        expected: usize,
+        /// Patterns given.
+        given: usize,
+    },
     /// The JPEG encoder refused the image.
     #[error(transparent)]
     Jpeg(#[from] JpegError),
