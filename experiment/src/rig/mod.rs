@@ -10,20 +10,23 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
-use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
+use slidetrack_calibration::{
+    Board, Dictionary, MarkerDetector, MarkerTracker, SlidingAxis, board_patterns, encode_jpeg,
+    marker_pattern,
+};
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig};
 use slidetrack_core::{
     ActuatorCommand, ActuatorSpec, Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, FingerMap,
     HandActuator, HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
 };
 use slidetrack_session::LiveTap;
-use slidetrack_sim::camera::SimCameraRenderer;
+use slidetrack_sim::camera::{BoardPrint, SimCameraRenderer};
 use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use hw::{describe, v4l2_intrinsics};
 
-use crate::marker::{LiveMarkers, MarkerSource};
+use crate::marker::{LiveBoard, LiveMarkers, MarkerSource};
 use crate::rig_config::RigConfig;
 
 /// Which rig runs a trial.
@@ -118,12 +121,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let tactile_info = sim.tactile.info();
     let geometry = &spec.rig.geometry;
     let (camera, markers) = if spec.camera {
-        let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
-            .context("cannot make the marker for the simulated camera")?;
-        let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
-        let renderer =
-            SimCameraRenderer::new(spec.rig.camera.clone(), object.appearance.clone(), marker, seed)
-                .context("cannot set up the simulated camera")?;
+        let renderer = sim_camera_renderer(spec)?;
         let camera = SimCamera::new(
             sim.world.clone(),
             renderer,
@@ -140,7 +138,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
             }
         }));
         let markers = marker_tracking(spec, camera.hand_from_camera(), camera.intrinsics())?;
-        (Some(Box::new(camera) as Box<dyn Camera>), Some(Box::new(markers) as Box<dyn MarkerSource>))
+        (Some(Box::new(camera) as Box<dyn Camera>), Some(markers))
     } else {
         (None, None)
     };
@@ -156,19 +154,54 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     Ok(RigSetup { rig, tactile_info, markers, rig_name: "sim".into(), extra_metadata: BTreeMap::new() })
 }
 
-/// Marker detection for a camera at `hand_from_camera` with `intrinsics`.
+/// The simulated camera's renderer of `spec`'s trial: the object's marker,
+/// or the rig's board, from OpenCV's dictionaries.
+pub(crate) fn sim_camera_renderer(spec: &TrialSpec) -> Result<SimCameraRenderer> {
+    let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
+    let (config, appearance) = (spec.rig.camera.clone(), spec.object.appearance.clone());
+    let marker = &spec.rig.marker;
+    let renderer = match &marker.board {
+        None => {
+            let pattern = marker_pattern(&marker.dictionary, marker.id)
+                .context("cannot make the marker for the simulated camera")?;
+            SimCameraRenderer::new(config, appearance, pattern, seed)
+        }
+        Some(layout) => {
+            let markers = board_patterns(layout, &Dictionary::from_name(&marker.dictionary)?)
+                .context("cannot make the board for the simulated camera")?;
+            SimCameraRenderer::with_board(
+                config,
+                appearance,
+                BoardPrint { layout: layout.clone(), markers },
+                seed,
+            )
+        }
+    };
+    renderer.context("cannot set up the simulated camera")
+}
+
+/// Marker (or board) detection for a camera at `hand_from_camera` with `intrinsics`.
 pub fn marker_tracking(
     spec: &TrialSpec,
     hand_from_camera: nalgebra::Isometry3<f64>,
     intrinsics: &CameraIntrinsics,
-) -> Result<LiveMarkers> {
+) -> Result<Box<dyn MarkerSource>> {
     let axis = SlidingAxis::new(hand_from_camera, spec.rig.geometry.sliding_axis_in_hand.into())?;
-    Ok(LiveMarkers {
-        tracker: MarkerTracker::new(Dictionary::from_name(&spec.rig.marker.dictionary)?, spec.rig.marker.id)?,
+    let dictionary = Dictionary::from_name(&spec.rig.marker.dictionary)?;
+    if let Some(layout) = &spec.rig.marker.board {
+        return Ok(Box::new(LiveBoard {
+            board: Board::new(layout.clone(), &dictionary)?,
+            detector: MarkerDetector::new(dictionary)?,
+            intrinsics: intrinsics.clone(),
+            projector: axis.projector(),
+        }));
+    }
+    Ok(Box::new(LiveMarkers {
+        tracker: MarkerTracker::new(dictionary, spec.rig.marker.id)?,
         marker_size_m: spec.object.appearance.marker_size_m,
         intrinsics: intrinsics.clone(),
         projector: axis.projector(),
-    })
+    }))
 }
 
 /// The protocol of a trial of `object` on `rig`, whose sliding cycles last

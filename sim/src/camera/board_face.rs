@@ -3,8 +3,8 @@
 
 use slidetrack_core::{BoardLayout, MarkerPattern};
 
-use super::ObjectAppearance;
 use super::blocks::{PlanarPattern, disjoint, in_box, inside};
+use super::object::ObjectAppearance;
 use super::raster::PlaneInCamera;
 
 /// A board as printed: its layout and the bits of each of its markers.
