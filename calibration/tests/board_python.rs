@@ -52,21 +52,23 @@ struct Case {
 
 /// slidetrack's observation and pose of a photo's board.
 fn slidetrack_pose(case: &Case) -> (BoardObservation, BoardPose) {
-    let dictionary = ToolDictionary::load(&case.dictionary).unwrap();
-    let photo = read_image(&testdata(case.image)).unwrap();
+    let dictionary = ToolDictionary::load(&case.dictionary).expect("dictionary");
+    let photo = read_image(&testdata(case.image)).expect("photo");
     let found =
-        detect_markers(&photo, &dictionary, &detector_parameters(None, Refinement::None).unwrap()).unwrap();
-    let mut intrinsics = read_camera_info(testdata(case.camera)).unwrap().intrinsics;
+        detect_markers(&photo, &dictionary, &detector_parameters(None, Refinement::None).expect("defaults"))
+            .expect("detection");
+    let mut intrinsics = read_camera_info(testdata(case.camera)).expect("camera file").intrinsics;
     (intrinsics.width, intrinsics.height) = (photo.width, photo.height);
-    let board = Board::with_dictionary(case.layout.clone(), &dictionary).unwrap();
-    let obs = board.observe_photo(&found, &photo, &intrinsics).unwrap();
-    let pose = board_pose(&obs, &intrinsics).unwrap();
+    let board = Board::with_dictionary(case.layout.clone(), &dictionary).expect("board");
+    let obs = board.observe_photo(&found, &photo, &intrinsics).expect("board points");
+    let pose = board_pose(&obs, &intrinsics).expect("board pose");
     (obs, pose)
 }
 
 fn isometry(pose: &serde_json::Value) -> Isometry3<f64> {
     let v = |key: &str| {
-        let a: Vec<f64> = pose[key].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        let a: Vec<f64> =
+            pose[key].as_array().expect("a vector").iter().map(|x| x.as_f64().expect("a number")).collect();
         Vector3::new(a[0], a[1], a[2])
     };
     Isometry3::from_parts(Translation3::from(v("tvec_m")), UnitQuaternion::from_scaled_axis(v("rvec")))
@@ -82,23 +84,23 @@ fn difference(a: &Isometry3<f64>, b: &Isometry3<f64>) -> (f64, f64) {
 
 fn check(case: &Case, python: &Path) {
     let (obs, pose) = slidetrack_pose(case);
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().expect("temporary directory");
     let request = dir.path().join("request.json");
     let body = serde_json::json!({
         "image": testdata(case.image),
         "dictionary": case.dictionary,
         "camera": testdata(case.camera),
         // slidetrack's TOML form of the layout, as JSON.
-        "board": serde_json::to_value(&case.layout).unwrap(),
+        "board": serde_json::to_value(&case.layout).expect("layout as JSON"),
         "given": {"ids": obs.ids, "image_px": obs.image_px},
     });
-    std::fs::write(&request, body.to_string()).unwrap();
+    std::fs::write(&request, body.to_string()).expect("request written");
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/python/board_pose_reference.py");
-    let out = Command::new(python).arg(&script).arg(&request).output().unwrap();
+    let out = Command::new(python).arg(&script).arg(&request).output().expect("python runs");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let reference: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let reference: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON from the script");
     let given = &reference["given"];
-    assert_eq!(given["points"].as_u64().unwrap() as usize, pose.points);
+    assert_eq!(given["points"].as_u64().expect("a count") as usize, pose.points);
     let (dt_mm, dr_deg) = difference(&pose.camera_from_board, &isometry(given));
     let own = &reference["own"]["pose"];
     let (own_dt_mm, own_dr_deg) = difference(&pose.camera_from_board, &isometry(own));
@@ -108,16 +110,16 @@ fn check(case: &Case, python: &Path) {
         case.image,
         pose.points,
         pose.reprojection_error_px,
-        given["rms_px"].as_f64().unwrap(),
+        given["rms_px"].as_f64().expect("a number"),
         own["points"],
         reference["opencv"],
     );
     assert!(dt_mm < 0.5 && dr_deg < 0.1, "{}: {dt_mm} mm, {dr_deg} deg", case.image);
-    assert!((pose.reprojection_error_px - given["rms_px"].as_f64().unwrap()).abs() < 1e-3);
+    assert!((pose.reprojection_error_px - given["rms_px"].as_f64().expect("a number")).abs() < 1e-3);
     // Python's own detection: the same markers and points.
-    let markers = reference["own"]["markers"].as_object().unwrap();
+    let markers = reference["own"]["markers"].as_object().expect("markers by id");
     assert_eq!(markers.len(), pose.markers, "{}", case.image);
-    assert_eq!(own["points"].as_u64().unwrap() as usize, pose.points, "{}", case.image);
+    assert_eq!(own["points"].as_u64().expect("a count") as usize, pose.points, "{}", case.image);
     // Another OpenCV version's own detection finds the same corners here.
     assert!(own_dt_mm < 0.5 && own_dr_deg < 0.1, "{}: {own_dt_mm} mm, {own_dr_deg} deg", case.image);
 }
