@@ -111,18 +111,11 @@ impl SimCameraRenderer {
         seed: u64,
     ) -> Result<SimCameraRenderer, SimCameraError> {
         board.layout.validate()?;
-        let first = board
-            .markers
-            .first()
-            .cloned()
-            .ok_or(SimCameraError::BoardMarkers { expected: board.layout.markers().len(), given: 0 })?;
-        if board.markers.len() != board.layout.markers().len()
-            || board.markers.iter().any(|m| m.cells != first.cells)
-        {
-            return Err(SimCameraError::BoardMarkers {
-                expected: board.layout.markers().len(),
-                given: board.markers.len(),
-            });
+        let expected = board.layout.markers().len();
+        let first =
+            board.markers.first().cloned().ok_or(SimCameraError::BoardMarkers { expected, given: 0 })?;
+        if board.markers.len() != expected || board.markers.iter().any(|m| m.cells != first.cells) {
+            return Err(SimCameraError::BoardMarkers { expected, given: board.markers.len() });
         }
         for m in &board.markers {
             m.validate()?;
