@@ -209,7 +209,7 @@ impl PlanarPattern for BoardFacePattern<'_> {
             2 => Some(self.board_box_m),
             _ => {
                 let k = part - TILES_START;
-                if k % self.parts_per_tile() != 0 {
+                if !k.is_multiple_of(self.parts_per_tile()) {
                     return None;
                 }
                 self.tiles.get((k / self.parts_per_tile()) as usize)?.marker_box
