@@ -7,6 +7,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use slidetrack_control::ProtocolSettings;
+use slidetrack_core::BoardLayout;
 use slidetrack_drivers::HwRigConfig;
 use slidetrack_drivers::rgbd_config::RgbdCameraConfig;
 use slidetrack_sim::SimRigConfig;
@@ -34,19 +35,24 @@ pub struct RigConfig {
     pub rgbd: Option<RgbdCameraConfig>,
 }
 
-/// The ArUco marker on the object (its size comes with the object).
+/// The ArUco target on the object: one marker (its size comes with the
+/// object), or a board of markers (`[marker.board]`, sizes in the table).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MarkerConfig {
     /// OpenCV predefined dictionary name.
     pub dictionary: String,
-    /// Marker id.
+    /// Marker id (the single marker; unused with a board).
     pub id: u32,
+    /// A GridBoard or ChArUco board instead of the single marker: its pose
+    /// from every marker or corner seen is the ground truth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub board: Option<BoardLayout>,
 }
 
 impl Default for MarkerConfig {
     fn default() -> Self {
-        MarkerConfig { dictionary: "DICT_6X6_250".into(), id: 7 }
+        MarkerConfig { dictionary: "DICT_6X6_250".into(), id: 7, board: None }
     }
 }
 
@@ -113,6 +119,9 @@ impl RigConfig {
         if let Some(rgbd) = &self.rgbd {
             rgbd.validate()?;
         }
+        if let Some(board) = &self.marker.board {
+            board.validate().context("marker.board")?;
+        }
         Ok(())
     }
 }
@@ -147,6 +156,24 @@ mod tests {
             slidetrack_core::parse_toml(&readme[start..end], "docs/configuration.md").unwrap();
         cfg.validate().unwrap();
         assert_eq!(cfg.marker.dictionary, "DICT_6X6_250");
+    }
+
+    #[test]
+    fn a_marker_table_may_describe_a_board_and_the_single_marker_serialises_as_before() {
+        let single = toml::to_string(&RigConfig::default()).unwrap();
+        assert!(single.contains("[marker]\ndictionary = \"DICT_6X6_250\"\nid = 7\n"), "{single}");
+        assert!(!single.contains("board"), "{single}");
+        let text = "[marker]\ndictionary = \"DICT_5X5_100\"\n[marker.board]\nkind = \"charuco\"\n\
+                    squares_x = 5\nsquares_y = 7\nsquare_length_m = 0.04\nmarker_length_m = 0.02\n";
+        let cfg: RigConfig = slidetrack_core::parse_toml(text, "rig.toml").unwrap();
+        cfg.validate().unwrap();
+        assert!(matches!(cfg.marker.board, Some(BoardLayout::Charuco { squares_x: 5, .. })));
+        let back: RigConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
+        assert_eq!(back, cfg);
+        let bad = text.replace("marker_length_m = 0.02", "marker_length_m = 0.05");
+        let cfg: RigConfig = slidetrack_core::parse_toml(&bad, "rig.toml").unwrap();
+        let e = format!("{:#}", cfg.validate().unwrap_err());
+        assert!(e.contains("marker.board") && e.contains("marker_length_m"), "{e}");
     }
 
     #[test]

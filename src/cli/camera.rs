@@ -99,7 +99,8 @@ pub struct ArucoArgs {
 /// The marker tools.
 #[derive(Debug, Subcommand)]
 pub enum ArucoCommand {
-    /// Detect markers in an image; with intrinsics and a marker size, their poses too.
+    /// Detect markers in an image; with intrinsics and a marker size, their
+    /// poses too; with intrinsics and a board, the board's pose.
     Detect(ArucoDetectArgs),
 }
 
@@ -118,6 +119,7 @@ pub enum RefineArg {
 
 /// Arguments of `aruco detect`.
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("target").args(["marker_size", "board"])))]
 pub struct ArucoDetectArgs {
     /// Image file.
     pub image: PathBuf,
@@ -125,11 +127,16 @@ pub struct ArucoDetectArgs {
     #[arg(long, default_value = "DICT_6X6_250")]
     pub dict: String,
     /// Camera calibration (ROS camera_info or OpenCV YAML), for poses.
-    #[arg(long, requires = "marker_size")]
+    #[arg(long, requires = "target")]
     pub camera: Option<PathBuf>,
     /// Side of the markers' black square (m), for poses.
     #[arg(long, requires = "camera")]
     pub marker_size: Option<f64>,
+    /// A board's layout (TOML, the keys of a rig's [marker.board]: kind =
+    /// "grid" or "charuco" and its sizes), for the board's pose from all its
+    /// markers or ChArUco corners.
+    #[arg(long, requires = "camera")]
+    pub board: Option<PathBuf>,
     /// OpenCV detector parameters file (detector_params.yml).
     #[arg(long)]
     pub params: Option<PathBuf>,

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use slidetrack_calibration::camera_info::read_camera_info;
-use slidetrack_calibration::{encode_jpeg, marker_pattern};
+use slidetrack_calibration::encode_jpeg;
 use slidetrack_control::Rig;
 use slidetrack_core::{
     Camera, CameraIntrinsics, Clock, HandActuator, HandMonitor, TactileSource, TruthSource, WallClock,
@@ -23,9 +23,7 @@ use slidetrack_drivers::robotiq::backend::{
     EmulatedRobotiqGripper, EmulatedRobotiqMonitor, RobotiqGripper, RobotiqMonitor,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{
-    HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, SimHandMonitor, Stream, stream_seed,
-};
+use slidetrack_sim::{HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, SimHandMonitor};
 
 use super::trial::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
@@ -204,18 +202,15 @@ fn prepare_camera(spec: &TrialSpec, camera: &CameraDevice) -> Result<(Option<Pre
     Ok(match (camera, spec.camera) {
         (CameraDevice::None, _) | (_, false) => (None, None),
         (CameraDevice::Sim, true) => {
-            let renderer = sim_renderer(spec)?;
+            let renderer = super::trial::sim_camera_renderer(spec)?;
             let markers = marker_tracking(spec, *renderer.hand_from_camera(), renderer.intrinsics())?;
-            (Some(PreparedCamera::Sim(Box::new(renderer))), Some(Box::new(markers) as Box<dyn MarkerSource>))
+            (Some(PreparedCamera::Sim(Box::new(renderer))), Some(markers))
         }
         (CameraDevice::V4l2(v), true) => {
             let intrinsics = v4l2_intrinsics(v)?;
             let hand_from_camera = v.placement.hand_from_camera().context("hw.camera.placement")?;
             let markers = marker_tracking(spec, hand_from_camera, &intrinsics)?;
-            (
-                Some(PreparedCamera::V4l2(v.clone(), intrinsics)),
-                Some(Box::new(markers) as Box<dyn MarkerSource>),
-            )
+            (Some(PreparedCamera::V4l2(v.clone(), intrinsics)), Some(markers))
         }
     })
 }
@@ -245,15 +240,6 @@ fn open_camera(
             Some(Box::new(V4l2Camera::open(&v, intrinsics, Arc::clone(clock))?))
         }
     })
-}
-
-/// The simulated camera's renderer (the marker comes from OpenCV's dictionaries).
-fn sim_renderer(spec: &TrialSpec) -> Result<SimCameraRenderer> {
-    let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
-        .context("cannot make the marker for the simulated camera")?;
-    let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
-    SimCameraRenderer::new(spec.rig.camera.clone(), spec.object.appearance.clone(), marker, seed)
-        .context("cannot set up the simulated camera")
 }
 
 /// The intrinsics of a V4L2 camera: its calibration file (ROS `camera_info`

@@ -9,20 +9,19 @@ mod trial;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use anyhow::{Context, Result, bail};
-use slidetrack_calibration::{encode_jpeg, marker_pattern};
+use anyhow::{Result, bail};
+use slidetrack_calibration::encode_jpeg;
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig};
 use slidetrack_core::{
     ActuatorSpec, Camera, Clock, FingerMap, HandMonitor, SimClock, TactileSource, WallClock,
 };
-use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
+use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices};
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use hw::{describe, v4l2_intrinsics};
 
-use crate::marker::MarkerSource;
 use crate::rig_config::RigConfig;
+use trial::sim_camera_renderer;
 pub use trial::{HandUse, RigKind, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 
 /// The simulated rig of `spec`'s trial, with its camera when asked for.
@@ -38,12 +37,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let tactile_info = sim.tactile.info();
     let geometry = &spec.rig.geometry;
     let (camera, markers) = if spec.camera {
-        let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
-            .context("cannot make the marker for the simulated camera")?;
-        let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
-        let renderer =
-            SimCameraRenderer::new(spec.rig.camera.clone(), object.appearance.clone(), marker, seed)
-                .context("cannot set up the simulated camera")?;
+        let renderer = sim_camera_renderer(spec)?;
         let camera = SimCamera::new(
             sim.world.clone(),
             renderer,
@@ -60,7 +54,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
             }
         }));
         let markers = marker_tracking(spec, camera.hand_from_camera(), camera.intrinsics())?;
-        (Some(Box::new(camera) as Box<dyn Camera>), Some(Box::new(markers) as Box<dyn MarkerSource>))
+        (Some(Box::new(camera) as Box<dyn Camera>), Some(markers))
     } else {
         (None, None)
     };

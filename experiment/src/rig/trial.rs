@@ -4,16 +4,19 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use anyhow::Result;
-use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis};
+use anyhow::{Context, Result};
+use slidetrack_calibration::{
+    Board, Dictionary, MarkerDetector, MarkerTracker, SlidingAxis, board_patterns, marker_pattern,
+};
 use slidetrack_control::Rig;
 use slidetrack_core::{
     ActuatorCommand, ActuatorSpec, CameraIntrinsics, DeviceError, ErrorKind, HandActuator, TactileInfo,
 };
 use slidetrack_session::LiveTap;
-use slidetrack_sim::ObjectConfig;
+use slidetrack_sim::camera::{BoardPrint, SimCameraRenderer};
+use slidetrack_sim::{ObjectConfig, Stream, stream_seed};
 
-use crate::marker::{LiveMarkers, MarkerSource};
+use crate::marker::{LiveBoard, LiveMarkers, MarkerSource};
 use crate::rig_config::RigConfig;
 
 /// Which rig runs a trial.
@@ -95,17 +98,52 @@ impl HandActuator for UndrivenHand {
     }
 }
 
-/// Marker detection for a camera at `hand_from_camera` with `intrinsics`.
+/// The simulated camera's renderer of `spec`'s trial: the object's marker,
+/// or the rig's board, from OpenCV's dictionaries.
+pub(crate) fn sim_camera_renderer(spec: &TrialSpec) -> Result<SimCameraRenderer> {
+    let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
+    let (config, appearance) = (spec.rig.camera.clone(), spec.object.appearance.clone());
+    let marker = &spec.rig.marker;
+    let renderer = match &marker.board {
+        None => {
+            let pattern = marker_pattern(&marker.dictionary, marker.id)
+                .context("cannot make the marker for the simulated camera")?;
+            SimCameraRenderer::new(config, appearance, pattern, seed)
+        }
+        Some(layout) => {
+            let markers = board_patterns(layout, &Dictionary::from_name(&marker.dictionary)?)
+                .context("cannot make the board for the simulated camera")?;
+            SimCameraRenderer::with_board(
+                config,
+                appearance,
+                BoardPrint { layout: layout.clone(), markers },
+                seed,
+            )
+        }
+    };
+    renderer.context("cannot set up the simulated camera")
+}
+
+/// Marker (or board) detection for a camera at `hand_from_camera` with `intrinsics`.
 pub fn marker_tracking(
     spec: &TrialSpec,
     hand_from_camera: nalgebra::Isometry3<f64>,
     intrinsics: &CameraIntrinsics,
-) -> Result<LiveMarkers> {
+) -> Result<Box<dyn MarkerSource>> {
     let axis = SlidingAxis::new(hand_from_camera, spec.rig.geometry.sliding_axis_in_hand.into())?;
-    Ok(LiveMarkers {
-        tracker: MarkerTracker::new(Dictionary::from_name(&spec.rig.marker.dictionary)?, spec.rig.marker.id)?,
+    let dictionary = Dictionary::from_name(&spec.rig.marker.dictionary)?;
+    if let Some(layout) = &spec.rig.marker.board {
+        return Ok(Box::new(LiveBoard {
+            board: Board::new(layout.clone(), &dictionary)?,
+            detector: MarkerDetector::new(dictionary)?,
+            intrinsics: intrinsics.clone(),
+            projector: axis.projector(),
+        }));
+    }
+    Ok(Box::new(LiveMarkers {
+        tracker: MarkerTracker::new(dictionary, spec.rig.marker.id)?,
         marker_size_m: spec.object.appearance.marker_size_m,
         intrinsics: intrinsics.clone(),
         projector: axis.projector(),
-    })
+    }))
 }
