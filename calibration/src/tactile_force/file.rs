@@ -55,8 +55,14 @@ impl TactileForceCalibration {
     pub fn load(path: &Path) -> Result<TactileForceCalibration, TactileForceError> {
         let text = std::fs::read_to_string(path)
             .map_err(|source| TactileForceError::Io { path: path.to_path_buf(), source })?;
-        let cal: TactileForceCalibration = toml::from_str(&text)
-            .map_err(|e| TactileForceError::Parse { path: path.to_path_buf(), detail: e.to_string() })?;
+        let cal: TactileForceCalibration = toml::from_str(&text).map_err(|e| {
+            // One line: the message and where, without the source excerpt.
+            let line = e.span().map_or(1, |s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            TactileForceError::Parse {
+                path: path.to_path_buf(),
+                detail: format!("line {line}: {}", e.message()),
+            }
+        })?;
         if cal.format != FORMAT || cal.version != VERSION {
             return Err(TactileForceError::Version {
                 path: path.to_path_buf(),

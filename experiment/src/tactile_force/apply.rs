@@ -26,8 +26,8 @@ pub struct TactileApplyOptions {
 
 /// Reads a calibration file; an error names it.
 pub fn load_calibration(path: &Path) -> Result<TactileForceCalibration> {
-    TactileForceCalibration::load(path)
-        .with_context(|| format!("invalid tactile calibration {}", path.display()))
+    // The error names the file.
+    TactileForceCalibration::load(path).context("invalid tactile calibration")
 }
 
 /// Writes a copy of the session with `/tactile/calibrated` (replacing a
