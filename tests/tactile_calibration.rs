@@ -89,9 +89,9 @@ fn the_fit_predicts_held_out_forces_within_5_percent_of_their_range() {
     assert_eq!(report["held_out"], true);
     let quadratic = fractions(row(&report, "quadratic"));
     let zero = fractions(row(&report, "zero"));
-    for i in 0..3 {
-        assert!(quadratic[i] <= 0.05, "axis {i}: {:.4} of the range", quadratic[i]);
-        assert!(zero[i] > 3.0 * quadratic[i], "the zero map is no competitor on axis {i}: {zero:?}");
+    for (axis, (q, z)) in ["x", "y", "z"].iter().zip(quadratic.iter().zip(zero)) {
+        assert!(*q <= 0.05, "axis {axis}: {q:.4} of the range");
+        assert!(z > 3.0 * q, "the zero map is no competitor on axis {axis}: {zero:?}");
     }
     let file = std::fs::read_to_string(&cal).unwrap();
     assert!(

@@ -333,11 +333,11 @@ impl SimWorld {
         let normal = self.normal_n();
         let taxels = self.taxel_shares.len() as f64;
         let mut out = Vec::with_capacity(3 * self.taxel_shares.len());
-        for f in 0..3 {
-            let tangential_n = self.tangential_n(f, normal[f]);
-            for (module, share) in self.modules[f].iter().zip(&self.taxel_shares) {
+        for (f, (modules, normal_n)) in self.modules.iter().zip(normal).enumerate() {
+            let tangential_n = self.tangential_n(f, normal_n);
+            for (module, share) in modules.iter().zip(&self.taxel_shares) {
                 let k = share / taxels;
-                out.push(module.force_in_module_frame([k * tangential_n, 0.0, k * normal[f]]));
+                out.push(module.force_in_module_frame([k * tangential_n, 0.0, k * normal_n]));
             }
         }
         out

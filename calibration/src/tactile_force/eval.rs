@@ -32,12 +32,12 @@ pub fn axis_errors(pairs: impl IntoIterator<Item = ([f64; 3], [f64; 3])>) -> Axi
     let mut samples = 0;
     for (predicted, reference) in pairs {
         samples += 1;
-        for i in 0..3 {
-            let e = predicted[i] - reference[i];
+        for (i, (p, r)) in predicted.iter().zip(&reference).enumerate() {
+            let e = p - r;
             sum_sq[i] += e * e;
             max_abs[i] = max_abs[i].max(e.abs());
-            lo[i] = lo[i].min(reference[i]);
-            hi[i] = hi[i].max(reference[i]);
+            lo[i] = lo[i].min(*r);
+            hi[i] = hi[i].max(*r);
         }
     }
     if samples == 0 {
@@ -56,9 +56,9 @@ pub fn axis_errors(pairs: impl IntoIterator<Item = ([f64; 3], [f64; 3])>) -> Axi
 pub fn fit_global_scale(counts: &[[f64; 3]], force_n: &[[f64; 3]]) -> f64 {
     let (mut cf, mut cc) = (0.0, 0.0);
     for (c, f) in counts.iter().zip(force_n) {
-        for i in 0..3 {
-            cf += c[i] * f[i];
-            cc += c[i] * c[i];
+        for (c, f) in c.iter().zip(f) {
+            cf += c * f;
+            cc += c * c;
         }
     }
     if cc > 0.0 { cf / cc } else { 0.0 }
@@ -89,7 +89,9 @@ pub fn fit_axis_slopes(counts: &[[f64; 3]], force_n: &[[f64; 3]]) -> AxisSlopes 
     if n == 0.0 {
         return out;
     }
-    for i in 0..3 {
+    for (i, (slope_out, intercept_out)) in
+        out.slope_n_per_count.iter_mut().zip(out.intercept_n.iter_mut()).enumerate()
+    {
         let mean_c = counts.iter().map(|c| c[i]).sum::<f64>() / n;
         let mean_f = force_n.iter().map(|f| f[i]).sum::<f64>() / n;
         let (mut cov, mut var) = (0.0, 0.0);
@@ -98,8 +100,8 @@ pub fn fit_axis_slopes(counts: &[[f64; 3]], force_n: &[[f64; 3]]) -> AxisSlopes 
             var += (c[i] - mean_c) * (c[i] - mean_c);
         }
         let slope = if var > 0.0 { cov / var } else { 0.0 };
-        out.slope_n_per_count[i] = slope;
-        out.intercept_n[i] = mean_f - slope * mean_c;
+        *slope_out = slope;
+        *intercept_out = mean_f - slope * mean_c;
     }
     out
 }

@@ -71,8 +71,8 @@ pub fn fit_taxel(
     let mut sum_sq = [0.0; 3];
     for k in (0..counts.len()).filter(|k| keep[*k]) {
         let e = residual(&map, k);
-        for i in 0..3 {
-            sum_sq[i] += e[i] * e[i];
+        for (s, e) in sum_sq.iter_mut().zip(e) {
+            *s += e * e;
         }
     }
     Ok(TaxelFit { map, outliers, rms_n: sum_sq.map(|s| (s / kept as f64).sqrt()) })
@@ -101,8 +101,8 @@ fn solve(
         for (j, v) in phi.iter().enumerate() {
             x[(r, j)] = *v;
         }
-        for i in 0..3 {
-            y[(r, i)] = force_n[k][i];
+        for (i, f) in force_n[k].iter().enumerate() {
+            y[(r, i)] = *f;
         }
     }
     let scale: Vec<f64> = (0..terms)

@@ -46,11 +46,13 @@ fn a_linear_map_with_cross_talk_is_recovered_exactly() {
     let c = counts(200, 1);
     let f: Vec<[f64; 3]> = c.iter().map(|c| truth.force_n(*c)).collect();
     let fit = fit_taxel(ForceModelKind::Linear, 0, &c, &f).unwrap();
-    for i in 0..3 {
-        assert!(close(fit.map.offset_n[i], truth.offset_n[i], 1e-9), "{:?}", fit.map);
-        for j in 0..3 {
-            assert!(close(fit.map.linear_n_per_count[i][j], truth.linear_n_per_count[i][j], 1e-12));
-        }
+    for (got, want) in fit.map.offset_n.iter().zip(truth.offset_n) {
+        assert!(close(*got, want, 1e-9), "{:?}", fit.map);
+    }
+    for (got, want) in
+        fit.map.linear_n_per_count.iter().flatten().zip(truth.linear_n_per_count.iter().flatten())
+    {
+        assert!(close(*got, *want, 1e-12), "{:?}", fit.map);
     }
     assert_eq!(fit.outliers, 0);
     assert!(fit.rms_n.iter().all(|e| *e < 1e-9), "{:?}", fit.rms_n);

@@ -66,8 +66,8 @@ pub fn tared_scans(path: &Path, layout: &TactileLayout) -> Result<Vec<TaredScan>
     let mut baseline = vec![[0.0; 3]; layout.taxel_count()];
     for (_, _, scan) in &scans[..BASELINE_SCANS] {
         for (b, c) in baseline.iter_mut().zip(scan) {
-            for i in 0..3 {
-                b[i] += c[i] / BASELINE_SCANS as f64;
+            for (b, c) in b.iter_mut().zip(c) {
+                *b += c / BASELINE_SCANS as f64;
             }
         }
     }
