@@ -28,8 +28,8 @@ fn trial_path(dir: &Path, trial: u32) -> PathBuf {
 fn collect(dir: &Path, config: &Path, first_trial: u32, trials: u32) {
     let (first, n) = (first_trial.to_string(), trials.to_string());
     let seed = SEED.to_string();
-    let out = dir.to_str().unwrap();
-    let config = config.to_str().unwrap();
+    let out = dir.to_str().expect("utf-8 path");
+    let config = config.to_str().expect("utf-8 path");
     ok(&[
         "-q",
         "collect",
@@ -51,11 +51,11 @@ fn collect(dir: &Path, config: &Path, first_trial: u32, trials: u32) {
 
 /// The row of `map` in the JSON report.
 fn row<'a>(report: &'a Value, map: &str) -> &'a Value {
-    report["maps"].as_array().unwrap().iter().find(|m| m["map"] == map).unwrap()
+    report["maps"].as_array().expect("maps").iter().find(|m| m["map"] == map).expect("the map's row")
 }
 
 fn fractions(row: &Value) -> [f64; 3] {
-    let v = row["rms_of_range"].as_array().unwrap();
+    let v = row["rms_of_range"].as_array().expect("rms_of_range");
     [0, 1, 2].map(|i| v[i].as_f64().unwrap_or(f64::INFINITY))
 }
 
