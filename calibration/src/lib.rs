@@ -15,6 +15,7 @@ pub mod label;
 pub mod marker_tool;
 pub mod pose;
 pub mod session_inputs;
+pub mod tactile_force;
 
 #[cfg(test)]
 mod sim_tests;

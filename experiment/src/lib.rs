@@ -30,6 +30,7 @@ pub mod replay_file;
 pub mod rig;
 pub mod rig_config;
 pub mod study;
+pub mod tactile_force;
 pub mod tracked_trial;
 pub mod tracking;
 pub mod trial;

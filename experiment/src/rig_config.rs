@@ -2,7 +2,7 @@
 //! geometry and protocol settings. Every table has defaults; a file names only
 //! what it changes.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
@@ -33,6 +33,11 @@ pub struct RigConfig {
     /// The RGB-D camera of the vision trackers (`vision track --live`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rgbd: Option<RgbdCameraConfig>,
+    /// The rig's tactile force calibration file (`slidetrack calibrate
+    /// tactile --out`), relative to the rig TOML's directory: with it,
+    /// trials record `/tactile/calibrated` (N).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tactile_calibration: Option<PathBuf>,
 }
 
 /// The ArUco target on the object: one marker (its size comes with the
@@ -78,9 +83,16 @@ impl RigConfig {
         let Some(path) = path else { return Ok(RigConfig::default()) };
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read rig config {}", path.display()))?;
-        let cfg: RigConfig =
+        let mut cfg: RigConfig =
             slidetrack_core::parse_toml(&text, &path.display().to_string()).context("invalid rig config")?;
+        if let Some(cal) = cfg.tactile_calibration.as_mut().filter(|c| c.is_relative()) {
+            *cal = path.parent().unwrap_or(Path::new("")).join(&cal);
+        }
         cfg.validate().with_context(|| format!("invalid rig config {}", path.display()))?;
+        if let Some(cal) = &cfg.tactile_calibration {
+            crate::tactile_force::apply::load_calibration(cal)
+                .with_context(|| format!("rig config {}: tactile_calibration", path.display()))?;
+        }
         Ok(cfg)
     }
 

@@ -18,6 +18,10 @@ pub enum CalibrateCommand {
     /// Camera intrinsics (pinhole + plumb-bob distortion) from pattern views:
     /// image files, a V4L2 camera, or the simulated camera.
     Camera(CalibrateCameraArgs),
+    /// Tactile counts to newtons: a map per taxel (per axis, with
+    /// cross-talk) fitted on sessions with reference forces, or applied to
+    /// a session (`--apply`).
+    Tactile(super::tactile::CalibrateTactileArgs),
 }
 
 /// Output format of the camera calibration.

@@ -1,4 +1,5 @@
-//! `slidetrack calibrate camera`: intrinsics from pattern views, to ROS or OpenCV YAML.
+//! `slidetrack calibrate camera`: intrinsics from pattern views, to ROS or OpenCV YAML
+//! (`calibrate tactile` is in `calibrate_tactile`).
 
 use anyhow::Result;
 use serde_json::json;
@@ -11,6 +12,7 @@ use crate::cli::{CalibrateArgs, CalibrateCameraArgs, CalibrateCommand, Calibrati
 pub fn run(args: &CalibrateArgs, quiet: bool) -> Result<()> {
     match &args.what {
         CalibrateCommand::Camera(a) => camera(a, quiet),
+        CalibrateCommand::Tactile(a) => super::calibrate_tactile::run(a, quiet),
     }
 }
 
