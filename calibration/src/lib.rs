@@ -3,6 +3,7 @@
 
 pub mod aruco;
 pub mod axis;
+pub mod board;
 pub mod calibrate;
 pub mod calibrate_live;
 pub mod camera_info;
@@ -22,6 +23,7 @@ pub use aruco::{
     CornerRefinement, Dictionary, MarkerDetection, MarkerDetector, MarkerTracker, PixelRoi, marker_pattern,
 };
 pub use axis::{SlidingAxis, SlidingProjector};
+pub use board::{Board, BoardObservation, BoardPose, board_patterns, board_pose};
 pub use codec::encode_jpeg;
 pub use error::MarkerError;
 pub use pose::{MarkerPose, marker_pose, marker_pose_candidates};

@@ -30,6 +30,7 @@
 
 mod blocks;
 mod board;
+mod board_face;
 mod config;
 mod error;
 mod face;
@@ -42,6 +43,7 @@ mod texture;
 mod tests;
 
 pub use board::Chessboard;
+pub use board_face::BoardPrint;
 pub use config::{BackgroundConfig, SimCameraConfig};
 pub use error::SimCameraError;
 pub use object::ObjectAppearance;

@@ -45,6 +45,17 @@ pub enum SimCameraError {
     /// The marker pattern's bit count does not match its size.
     #[error(transparent)]
     Marker(#[from] BadMarkerPattern),
+    /// The board layout cannot be printed.
+    #[error(transparent)]
+    Board(#[from] slidetrack_core::BadBoardLayout),
+    /// A board's markers do not match its layout (one pattern per marker, all of one size).
+    #[error("the board has {expected} markers but {given} marker patterns of one size were given")]
+    BoardMarkers {
+        /// Markers of the layout.
+        expected: usize,
+        /// Patterns given.
+        given: usize,
+    },
     /// The JPEG encoder refused the image.
     #[error(transparent)]
     Jpeg(#[from] JpegError),
