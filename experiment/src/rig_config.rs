@@ -32,6 +32,9 @@ pub struct RigConfig {
     /// The RGB-D camera of the vision trackers (`vision track --live`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rgbd: Option<RgbdCameraConfig>,
+    /// The marker fixed to the hand for `calibrate hand`; absent by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hand_target: Option<crate::hand_target::HandTargetConfig>,
 }
 
 /// The ArUco marker on the object (its size comes with the object).
