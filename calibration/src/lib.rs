@@ -10,6 +10,8 @@ pub mod camera_info;
 pub mod codec;
 pub mod error;
 pub mod ground_truth;
+pub mod hand_eye;
+pub mod hand_eye_error;
 pub mod in_hand;
 pub mod label;
 pub mod marker_tool;
@@ -17,6 +19,8 @@ pub mod pose;
 pub mod session_inputs;
 pub mod tactile_force;
 
+#[cfg(test)]
+mod hand_eye_sim_tests;
 #[cfg(test)]
 mod sim_tests;
 

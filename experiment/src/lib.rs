@@ -13,6 +13,8 @@ pub mod devices;
 pub mod emulate;
 pub mod grasp_eval;
 pub mod grasp_state;
+pub mod hand_calibration;
+pub mod hand_target;
 pub mod image_markers;
 pub mod import;
 pub mod labelling;

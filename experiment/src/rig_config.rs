@@ -38,6 +38,9 @@ pub struct RigConfig {
     /// trials record `/tactile/calibrated` (N).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tactile_calibration: Option<PathBuf>,
+    /// The marker fixed to the hand for `calibrate hand`; absent by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hand_target: Option<crate::hand_target::HandTargetConfig>,
 }
 
 /// The ArUco target on the object: one marker (its size comes with the

@@ -22,6 +22,39 @@ pub enum CalibrateCommand {
     /// cross-talk) fitted on sessions with reference forces, or applied to
     /// a session (`--apply`).
     Tactile(super::tactile::CalibrateTactileArgs),
+    /// The camera's pose in the hand frame from a marker fixed to the hand
+    /// (`[hand_target]` in the rig TOML); prints a `[camera] placement` line.
+    Hand(CalibrateHandArgs),
+}
+
+/// Where `calibrate hand` takes its frames from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum HandRigArg {
+    /// The simulated camera rendering the hand's target.
+    Sim,
+}
+
+/// Arguments of `calibrate hand`.
+#[derive(Debug, Args)]
+pub struct CalibrateHandArgs {
+    /// The rig whose camera sees the hand's target.
+    #[arg(long, value_enum, default_value_t = HandRigArg::Sim)]
+    pub rig: HandRigArg,
+    /// Rig configuration (TOML) with [camera] and [hand_target].
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Frames to take.
+    #[arg(long, default_value_t = 30)]
+    pub frames: usize,
+    /// Seed of the simulated camera's noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Also write `[camera] placement = ...` (TOML) to this file.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the result as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Output format of the camera calibration.
