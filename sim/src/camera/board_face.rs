@@ -4,6 +4,7 @@
 use slidetrack_core::{BoardLayout, MarkerPattern};
 
 use super::blocks::{PlanarPattern, disjoint, in_box, inside};
+use super::face::lit_face_colours;
 use super::object::ObjectAppearance;
 use super::raster::PlaneInCamera;
 
@@ -64,10 +65,7 @@ impl<'a> BoardFacePattern<'a> {
         print: &'a BoardPrint,
         plane: &PlaneInCamera,
     ) -> BoardFacePattern<'a> {
-        let centre = plane.point(0.0, 0.0);
-        let cos = (-plane.normal().dot(&centre) / centre.norm().max(1e-12)).clamp(0.0, 1.0);
-        let shade = (0.75 + 0.25 * cos) as f32;
-        let gray = |g: u8| [f32::from(g) * shade; 3];
+        let [face_rgb, paper_rgb, ink_rgb] = lit_face_colours(appearance, plane);
         let cells = print.markers.first().map_or(1, |m| m.cells);
         let side = cells + 2;
         let layout = &print.layout;
@@ -119,9 +117,9 @@ impl<'a> BoardFacePattern<'a> {
             sticker_box_m: [ba0 - margin, ba1 + margin, bb0 - margin, bb1 + margin],
             board_box_m,
             inv_cell_m: 1.0 / cell_m,
-            face_rgb: appearance.face_rgb.map(|c| f32::from(c) * shade),
-            paper_rgb: gray(appearance.paper_gray),
-            ink_rgb: gray(appearance.ink_gray),
+            face_rgb,
+            paper_rgb,
+            ink_rgb,
         }
     }
 
