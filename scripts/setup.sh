@@ -14,16 +14,30 @@
 #     calibration/tests/board_python.rs), and PyTorch (the
 #     dEKF's PyTorch twin, scripts/dekf_torch_train.py, checked against the
 #     golden file by tests/dekf_golden.rs; from PyPI, about 5 GB, on CPU).
-# Runs apt-get through sudo only when not root.
+# Runs apt-get through sudo only when not root. `--test` is `--test-system`
+# (the system packages, python3-venv included) followed by `--test-python`
+# (target/pyenv); scripts/test runs the second while the workspace compiles.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(libopencv-dev libopencv-contrib-dev clang libclang-dev pkg-config fonts-dejavu-core linux-libc-dev)
-if [ "${1:-}" = "--test" ]; then
+mode="${1:-}"
+system=1
+python=0
+case "$mode" in
+  "") ;;
+  --test) python=1 ;;
+  --test-system) ;;
+  --test-python) system=0 python=1 ;;
+  *) echo "setup: unknown option $mode (use --test, --test-system or --test-python)" >&2; exit 2 ;;
+esac
+
+if [ "$mode" != "" ]; then
   python3 -c 'import venv, ensurepip' 2>/dev/null || packages+=(python3-venv)
 fi
 
 missing=()
+[ "$system" = 1 ] || packages=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
@@ -39,7 +53,7 @@ if [ "${#missing[@]}" -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-if [ "${1:-}" = "--test" ]; then
+if [ "$python" = 1 ]; then
   if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap, numpy, minimalmodbus, serial, websockets' 2>/dev/null; then
     echo "setup: creating target/pyenv with the official mcap reader, numpy, minimalmodbus, pyserial and websockets" >&2
     mkdir -p target
