@@ -21,6 +21,7 @@ use slidetrack_session::{Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOU
 
 use crate::observer::{SessionObserver, TrialStats};
 use crate::rig::{RigSetup, TrialSpec};
+use crate::vision::shared_camera::{start_recording, stop_recording};
 
 /// Key of the session metadata that marks a recording made by `slidetrack
 /// record` (value: `record`), which has no protocol channels.
@@ -92,7 +93,7 @@ pub fn record_devices(
     progress: &mut dyn FnMut(TimeNs),
 ) -> Result<RecordReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata } = setup;
+    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, .. } = setup;
     let mut hand_monitor = rig.hand_monitor.take();
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),
@@ -110,6 +111,7 @@ pub fn record_devices(
     metadata.extend(extra_metadata);
     let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
     let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
+    start_recording(rgbd.as_mut(), &recorder.logger())?;
     let with_truth = rig.truth.is_some();
     let mut observer = SessionObserver::recording(
         recorder.logger(),
@@ -160,6 +162,7 @@ pub fn record_devices(
     let _ = observer.on_event(last_scan, &ProtocolEvent { phase, message, abort: abort.clone() });
     let stats = observer.stats().clone();
     drop(observer);
+    stop_recording(rgbd);
     recorder
         .finish_with_outcome(end == RecordEnd::Duration, abort.map(|a| a.to_string()))
         .with_context(|| format!("cannot finish {}", spec.path.display()))?;

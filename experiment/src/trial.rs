@@ -12,6 +12,7 @@ use slidetrack_sim::sliding_episodes;
 
 use crate::observer::{SessionObserver, TrialExtension, TrialStats};
 use crate::rig::{RigKind, RigSetup, TrialSpec, build_rig, protocol_for};
+use crate::vision::shared_camera::{start_recording, stop_recording};
 
 /// How a trial went.
 pub struct TrialReport {
@@ -122,7 +123,7 @@ pub fn record_trial_with<'a>(
     extension: Option<ExtensionFactory<'a>>,
 ) -> Result<TrialReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, .. } = setup;
+    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, .. } = setup;
     let object = spec.object;
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),
@@ -141,6 +142,7 @@ pub fn record_trial_with<'a>(
     metadata.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(&tactile_info).to_json());
     metadata.extend(extra_metadata);
     let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
+    start_recording(rgbd.as_mut(), &recorder.logger())?;
     let with_truth = rig.truth.is_some();
     let mut observer =
         SessionObserver::new(recorder.logger(), &tactile_info, markers, with_truth, Box::new(progress))?;
@@ -151,7 +153,9 @@ pub fn record_trial_with<'a>(
     let mut protocol = protocol_for(spec.rig, object, spec.duration_s, fingers, &rig.hand.spec());
     let outcome = run_trial(&mut rig, &mut protocol, &mut observer, stop);
     let stats = observer.stats().clone();
+    // The extension's vision tracker first (it reads the camera's pairs), then the camera.
     drop(observer);
+    stop_recording(rgbd);
     let images_dropped = recorder.logger().images_dropped();
     let reason = outcome.abort.as_ref().map(|a| a.to_string());
     recorder

@@ -21,10 +21,13 @@ use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
-pub use hw::{describe, v4l2_intrinsics};
+pub use crate::v4l2_intrinsics::v4l2_intrinsics;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use hw::describe;
 
 use crate::marker::{LiveMarkers, MarkerSource};
 use crate::rig_config::RigConfig;
+use crate::vision::shared_camera::{SharedFrames, SharedRgbd};
 
 /// Which rig runs a trial.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -72,6 +75,12 @@ pub struct RigSetup {
     pub rig_name: String,
     /// Further keys of the session's metadata record (a replay names its recording).
     pub extra_metadata: BTreeMap<String, String>,
+    /// The RGB-D camera that is also the marker camera (`[hw.camera] kind =
+    /// "rgbd"`): it records its colour, depth and calibration once started
+    /// on the session, and is stopped before the session is finished.
+    pub rgbd: Option<SharedRgbd>,
+    /// Its pairs, for a vision tracker that takes them.
+    pub rgbd_frames: Option<SharedFrames>,
 }
 
 /// Whether a rig drives its hand.
@@ -153,7 +162,15 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         truth: Some(Box::new(sim.truth)),
         hand_monitor,
     };
-    Ok(RigSetup { rig, tactile_info, markers, rig_name: "sim".into(), extra_metadata: BTreeMap::new() })
+    Ok(RigSetup {
+        rig,
+        tactile_info,
+        markers,
+        rig_name: "sim".into(),
+        extra_metadata: BTreeMap::new(),
+        rgbd: None,
+        rgbd_frames: None,
+    })
 }
 
 /// Marker detection for a camera at `hand_from_camera` with `intrinsics`.

@@ -162,7 +162,7 @@ fn open_v4l2(
     rig_dir: &Path,
     clock: Arc<dyn Clock>,
 ) -> Result<LiveCamera> {
-    use crate::rig::v4l2_intrinsics;
+    use crate::v4l2_intrinsics::v4l2_intrinsics;
     use slidetrack_drivers::V4l2Camera;
     let node = |n: &slidetrack_drivers::config::V4l2CameraConfig,
                 field: &str|
