@@ -9,7 +9,9 @@
 #     official MCAP reader and NumPy, minimalmodbus with pyserial (an
 #     independent Modbus RTU client for the emulated Robotiq gripper) and
 #     websockets (the independent Foxglove WebSocket client of the live
-#     view's tests), used by the interoperability tests, and PyTorch (the
+#     view's tests), used by the interoperability tests, OpenCV's Python
+#     bindings (opencv-python-headless: the independent board poses of
+#     calibration/tests/board_python.rs), and PyTorch (the
 #     dEKF's PyTorch twin, scripts/dekf_torch_train.py, checked against the
 #     golden file by tests/dekf_golden.rs; from PyPI, about 5 GB, on CPU).
 # Runs apt-get through sudo only when not root.
@@ -43,6 +45,10 @@ if [ "${1:-}" = "--test" ]; then
     mkdir -p target
     python3 -m venv target/pyenv
     target/pyenv/bin/python -m pip install -q 'mcap==1.6.0' 'numpy==2.4.6' 'minimalmodbus==2.1.1' 'pyserial==3.5' 'websockets==15.0.1'
+  fi
+  if ! target/pyenv/bin/python -c 'import cv2' 2>/dev/null; then
+    echo "setup: installing opencv-python-headless into target/pyenv (an independent OpenCV for the board poses)" >&2
+    target/pyenv/bin/python -m pip install -q 'opencv-python-headless==4.13.0.92'
   fi
   if ! target/pyenv/bin/python -c 'import torch' 2>/dev/null; then
     echo "setup: installing torch into target/pyenv (the dEKF's PyTorch twin)" >&2

@@ -1,6 +1,6 @@
 //! The architecture of the workspace, checked on every `cargo test`:
 //!
-//! 1. **No import cycles across modules.** Every `.rs` file of `src/`,
+//! 1. **No import cycle anywhere.** Every `.rs` file of `src/`,
 //!    `tests/` and `benches/` of every package is parsed with `syn`; the
 //!    module tree of each crate (lib, bin, test, bench) is built from its root
 //!    file the way rustc resolves `mod` (`foo.rs`, `foo/mod.rs`, `#[path]`,
@@ -8,11 +8,11 @@
 //!    its items through `crate::`, `super::`, `self::` (in `use`, nested
 //!    groups included, in code, in macro arguments), through a child module
 //!    or through a module brought in by `use`. A path ends at the file that
-//!    declares (or re-exports) the item. A cycle of such imports fails the
-//!    test: in the packages of [`NO_CYCLE_AT_ALL`] any cycle, elsewhere one
-//!    whose files are not all in the same top-level module (`study` for
-//!    `experiment/src/study/tables.rs`). The crate root only declares
-//!    modules, so its own imports are left out.
+//!    declares (or re-exports) the item. Any cycle of such imports fails the
+//!    test, in every package, inside one module too (a parent re-exporting a
+//!    child that uses the parent's items: shared items go to a sibling file
+//!    both import). The crate root only declares modules, so its own imports
+//!    are left out.
 //! 2. **Layering.** Each crate's `Cargo.toml` names only the slidetrack crates
 //!    that [`ALLOWED_DEPENDENCIES`] allows it.
 //! 3. **Short functions in the CLI.** No function of the `slidetrack`
@@ -79,17 +79,6 @@ const fn rule(
     Rule { krate, may_depend_on, dev_only }
 }
 
-/// The packages in which no import cycle at all is allowed, inside one
-/// top-level module either (`commands/mod.rs` and `commands/track.rs`
-/// importing each other). The others may have cycles inside one module
-/// (a parent re-exporting a child that uses the parent's items).
-pub const NO_CYCLE_AT_ALL: &[&str] = &["slidetrack"];
-
-/// The cycles the import check looks for in `package`.
-fn scope_of(package: &str) -> CycleScope {
-    if NO_CYCLE_AT_ALL.contains(&package) { CycleScope::Everywhere } else { CycleScope::AcrossModules }
-}
-
 /// The workspace this test belongs to.
 fn workspace_root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -99,12 +88,8 @@ fn workspace_root() -> &'static Path {
 fn no_import_cycles_between_modules() {
     let started = Instant::now();
     let workspace = Workspace::load(workspace_root());
-    let report = check_workspace(&workspace, scope_of);
-    let everywhere = check_workspace(&workspace, |_| CycleScope::Everywhere);
-    eprintln!(
-        "architecture: {} cycle(s) inside one top-level module outside {NO_CYCLE_AT_ALL:?}, allowed there",
-        everywhere.cycles.len() - report.cycles.len()
-    );
+    // No cycle at all, in any package, inside one module either.
+    let report = check_workspace(&workspace, |_| CycleScope::Everywhere);
     eprintln!(
         "architecture: {} files, {} crates checked in {:.2?}",
         workspace.texts.len(),

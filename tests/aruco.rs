@@ -124,3 +124,33 @@ fn bad_input_gives_one_clear_error() {
     let e = fails(&["aruco", "detect", &image, "--camera", yaml.to_str().unwrap(), "--marker-size", "0.05"]);
     assert!(e.contains("camera_matrix") && e.contains("camera.yaml"), "{e}");
 }
+
+#[test]
+fn with_intrinsics_and_a_board_the_boards_pose_is_printed() {
+    let dir = tempdir();
+    let board = dir.path().join("board.toml");
+    // OpenCV's tutorial ChArUco board (samples/tutorial_charuco_create_detect.cpp).
+    std::fs::write(
+        &board,
+        "kind = \"charuco\"\nsquares_x = 5\nsquares_y = 7\nsquare_length_m = 0.04\nmarker_length_m = 0.02\n",
+    )
+    .unwrap();
+    let (image, camera) = (testdata("aruco/choriginal.jpg"), testdata("aruco/tutorial_camera_charuco.yml"));
+    let board = board.to_str().unwrap();
+    let out: Value = serde_json::from_str(&ok(&[
+        "aruco", "detect", &image, "--camera", &camera, "--board", board, "--json",
+    ]))
+    .unwrap();
+    let b = &out["board"];
+    assert_eq!((b["markers"].as_u64(), b["pose"]["points"].as_u64()), (Some(17), Some(24)), "{b}");
+    assert!(b["pose"]["reprojection_error_px"].as_f64().unwrap() < 0.5, "{b}");
+    let text = ok(&["aruco", "detect", &image, "--camera", &camera, "--board", board]);
+    assert!(text.contains("board: 17 marker(s), 24 point(s)"), "{text}");
+    // A board without a camera is refused by the argument parser; a bad layout names its field.
+    let out = common::run(&["aruco", "detect", &image, "--board", board]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--camera"));
+    std::fs::write(dir.path().join("bad.toml"), "kind = \"grid\"\nmarkers_x = 5\n").unwrap();
+    let bad = dir.path().join("bad.toml");
+    let e = fails(&["aruco", "detect", &image, "--camera", &camera, "--board", bad.to_str().unwrap()]);
+    assert!(e.contains("bad.toml") && e.contains("markers_y"), "{e}");
+}

@@ -32,8 +32,16 @@ kind = \"sim\"
 kind = \"sim\"
 ";
 
+/// What the fingers of [`two_patches`] read.
+const TWO_PATCH_FINGERS: &str = "fingers = { thumb = { sensor = \"left\" }, index = { sensor = \"right\", taxel = 5 }, middle = { sensor = \"right\" } }";
+
 /// Two uSPa44 patches (server sensors 1 and 2) of a parallel gripper.
 fn two_patches(url: &str) -> String {
+    two_patches_reading(url, TWO_PATCH_FINGERS)
+}
+
+/// [`two_patches`] with the `fingers` line `fingers` (empty: none).
+fn two_patches_reading(url: &str, fingers: &str) -> String {
     format!(
         "{SHORT_PROTOCOL}
 [hw]
@@ -41,7 +49,7 @@ name = \"xela-replay\"
 [hw.tactile]
 kind = \"xela_ws\"
 url = \"{url}\"
-fingers = {{ thumb = {{ sensor = \"left\" }}, index = {{ sensor = \"right\", taxel = 5 }}, middle = {{ sensor = \"right\" }} }}
+{fingers}
 [[hw.tactile.sensors]]
 name = \"left\"
 sensor = 1
@@ -228,6 +236,30 @@ fn fixtures_replayed_at_their_timing_keep_every_taxel_and_the_calibrated_forces(
     for topic in ["/tactile/raw", "/tactile/calibrated", "/tactile/device_time", "/tactile/decoder"] {
         assert!(info.contains(topic), "{info}");
     }
+}
+
+#[test]
+fn two_pads_need_no_fingers_table() {
+    // Each sensor names its finger: the thumb reads the left pad, index and
+    // middle the right one, taxel 0 (before, the run refused to start: the
+    // default table looked for sensors named after the fingers).
+    let dir = tempdir();
+    let server = XelaWsEmulator::start(XelaWsEmulatorConfig {
+        messages: replay("v177_list_uspa44_x2.json", 1200, None),
+        ..XelaWsEmulatorConfig::texts(vec![], Duration::ZERO)
+    })
+    .unwrap();
+    let rig = write(dir.path(), &two_patches_reading(&server.url(), ""));
+    let (code, stderr, file) = collect(&rig, &dir.path().join("out"));
+    assert_eq!(code, Some(0), "{stderr}");
+    let info = SessionInfo::read(&file, ReadOptions::default()).unwrap();
+    let channel = info.channels.iter().find(|c| c.topic == "/tactile/raw").unwrap();
+    let layout = TaxelLayout::from_channel_metadata(&channel.metadata).unwrap().unwrap();
+    let read = |s: &str| slidetrack_core::FingerReading::taxel(s, 0);
+    assert_eq!(
+        [&layout.fingers.thumb, &layout.fingers.index, &layout.fingers.middle],
+        [&read("left"), &read("right"), &read("right")]
+    );
 }
 
 #[test]

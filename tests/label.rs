@@ -218,3 +218,27 @@ fn a_closed_standard_output_stops_with_one_line() {
     assert!(stderr.contains("standard output was closed"), "{stderr}");
     assert!(!stderr.contains("panicked") && !stderr.contains("backtrace"), "{stderr}");
 }
+
+/// A rig whose ground-truth target is a GridBoard (`[marker.board]`): the
+/// simulated camera prints it on the box, `collect` records the board's
+/// centre pose, and `label` turns it into ground truth as for one marker.
+#[test]
+fn a_board_on_the_object_gives_ground_truth_like_the_marker() {
+    let dir = tempdir();
+    let rig = dir.path().join("board-rig.toml");
+    std::fs::write(
+        &rig,
+        "[marker]\ndictionary = \"DICT_6X6_250\"\n[marker.board]\nkind = \"grid\"\nmarkers_x = 2\n\
+         markers_y = 3\nmarker_length_m = 0.018\nseparation_m = 0.004\nfirst_id = 20\n",
+    )
+    .unwrap();
+    let file = collect(dir.path(), "box", 3, 8.0, &["--config", rig.to_str().unwrap()]);
+    let detections = read_channel::<ArucoDetection>(&file, ReadOptions::default()).unwrap();
+    let seen = detections.iter().filter(|(_, d)| d.position_in_camera_m.is_some()).count();
+    assert!(seen * 10 >= detections.len() * 9, "{seen} of {} frames with a board pose", detections.len());
+    assert!(detections.iter().filter_map(|(_, d)| d.marker_id).all(|id| (20..26).contains(&id)));
+    let out: Value = serde_json::from_str(&ok(&["-q", "label", file.to_str().unwrap(), "--json"])).unwrap();
+    let rmse_p = out[0]["rmse"]["position_m"].as_f64().unwrap();
+    eprintln!("board ground truth vs /sim/truth: {:.3} mm", rmse_p * 1e3);
+    assert!(rmse_p <= 0.16e-3, "position RMSE {:.3} mm", rmse_p * 1e3);
+}

@@ -4,7 +4,7 @@
 
 use std::fmt;
 
-use super::CalibrationError;
+use super::error::CalibrationError;
 
 /// A planar calibration pattern.
 #[derive(Clone, Debug, PartialEq)]

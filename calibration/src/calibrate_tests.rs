@@ -1,6 +1,8 @@
 //! Calibration recovers the simulator's intrinsics from rendered boards,
 //! and OpenCV's published result from its own chessboard photos.
 
+use std::path::PathBuf;
+
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use slidetrack_sim::SimBoardCamera;
 use slidetrack_sim::camera::{Chessboard, SimCameraConfig};

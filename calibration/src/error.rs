@@ -58,6 +58,23 @@ pub enum MarkerError {
         /// Marker id.
         id: u32,
     },
+    /// A board layout that cannot be printed.
+    #[error(transparent)]
+    BadBoard(slidetrack_core::BadBoardLayout),
+    /// Too few board points for a pose.
+    #[error("board: {points} point(s) seen, at least {needed} needed for a pose")]
+    TooFewBoardPoints {
+        /// Points seen.
+        points: usize,
+        /// Points needed.
+        needed: usize,
+    },
+    /// `solvePnP` found no board pose.
+    #[error("board: solvePnP (ITERATIVE) found no pose from {points} point(s)")]
+    NoBoardPose {
+        /// Points given.
+        points: usize,
+    },
     /// An OpenCV call failed.
     #[error("OpenCV {operation} failed: {source}")]
     OpenCv {

@@ -12,34 +12,22 @@ use slidetrack_core::{CameraPlacement, TimeNs};
 use slidetrack_estimators::constant_velocity::{CvParams, CvSample, CvTrack};
 use slidetrack_estimators::kf::Gaussian;
 use slidetrack_estimators::metrics::RunningRms;
-use slidetrack_estimators::rts::{Gate, MeasurementUse};
+use slidetrack_estimators::rts::MeasurementUse;
 use slidetrack_session::{ArucoDetection, GroundTruthMeasurement, GroundTruthSliding, SimTruth};
 use thiserror::Error;
 
 use crate::axis::SlidingAxis;
 
+#[path = "ground_truth_measurements.rs"]
+mod measurements;
 #[path = "ground_truth_params.rs"]
 mod params;
 
+pub use measurements::{AxisSource, Measurements};
 pub use params::{
     DEFAULT_GATE_MAHALANOBIS2, DEFAULT_Q_POSITION_M2_PER_S, DEFAULT_Q_VELOCITY_M2_PER_S3, DEFAULT_R_M2,
-    default_params, parameters_record, params_from_record, thesis_params,
+    default_params, gate, parameters_record, params_from_record, thesis_params,
 };
-
-/// Where the marker positions along the sliding axis come from.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum AxisSource {
-    /// `position_on_axis_m` as recorded online (the rig's axis and camera
-    /// placement at recording time).
-    #[default]
-    Recorded,
-    /// Recomputed from `position_in_camera_m` with the camera placement and
-    /// the sliding axis of the rig configuration stored in the session.
-    Config,
-    /// Recomputed from `position_in_camera_m` along the principal direction
-    /// of the marker track.
-    Estimate,
-}
 
 /// Why the ground truth could not be built.
 #[derive(Debug, Error)]
@@ -69,21 +57,6 @@ pub enum GroundTruthError {
     /// The filter failed.
     #[error("smoother: {0}")]
     Estimator(#[from] slidetrack_estimators::EstimatorError),
-}
-
-/// Marker positions along the sliding axis.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Measurements {
-    /// `(camera frame time, position (m))`, first one at 0, times increasing.
-    pub positions: Vec<(TimeNs, f64)>,
-    /// Camera frames without a usable position.
-    pub missing: usize,
-    /// Camera frames in all.
-    pub frames: usize,
-    /// The sliding direction in the camera frame, when it was computed here.
-    pub axis_in_camera: Option<Vector3<f64>>,
-    /// How the positions were obtained, for the parameters record.
-    pub source: String,
 }
 
 /// The part of the rig configuration the axis needs (other tables ignored).
@@ -400,12 +373,6 @@ pub fn rmse_against_truth(
         velocity.add(e.velocity - v);
     }
     Some(Rmse { position_m: position.rms()?, velocity_mps: velocity.rms()?, samples: position.count() })
-}
-
-/// A gate for `max_mahalanobis2` (never re-acquiring: [`Gate`]), `None`
-/// when it is not a positive number.
-pub fn gate(max_mahalanobis2: Option<f64>) -> Option<Gate> {
-    max_mahalanobis2.filter(|g| g.is_finite() && *g > 0.0).map(Gate::at)
 }
 
 #[cfg(test)]

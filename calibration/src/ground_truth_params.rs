@@ -5,7 +5,7 @@ use slidetrack_estimators::constant_velocity::CvParams;
 use slidetrack_estimators::rts::Gate;
 use slidetrack_session::GroundTruthParameters;
 
-use super::{Measurements, gate};
+use super::measurements::Measurements;
 
 /// Default innovation gate: squared Mahalanobis distance 25, i.e. a marker
 /// position more than 5 standard deviations of the innovation away from the
@@ -85,4 +85,10 @@ pub fn params_from_record(record: &GroundTruthParameters) -> CvParams {
         gate: gate(record.gate_max_mahalanobis2)
             .map(|g| Gate { reacquire_after: record.gate_reacquire_after, ..g }),
     }
+}
+
+/// A gate for `max_mahalanobis2` (never re-acquiring: [`Gate`]), `None`
+/// when it is not a positive number.
+pub fn gate(max_mahalanobis2: Option<f64>) -> Option<Gate> {
+    max_mahalanobis2.filter(|g| g.is_finite() && *g > 0.0).map(Gate::at)
 }

@@ -3,18 +3,24 @@
 
 pub mod aruco;
 pub mod axis;
+pub mod board;
 pub mod calibrate;
 pub mod calibrate_live;
 pub mod camera_info;
 pub mod codec;
 pub mod error;
 pub mod ground_truth;
+pub mod hand_eye;
+pub mod hand_eye_error;
 pub mod in_hand;
 pub mod label;
 pub mod marker_tool;
 pub mod pose;
 pub mod session_inputs;
+pub mod tactile_force;
 
+#[cfg(test)]
+mod hand_eye_sim_tests;
 #[cfg(test)]
 mod sim_tests;
 
@@ -22,6 +28,7 @@ pub use aruco::{
     CornerRefinement, Dictionary, MarkerDetection, MarkerDetector, MarkerTracker, PixelRoi, marker_pattern,
 };
 pub use axis::{SlidingAxis, SlidingProjector};
+pub use board::{Board, BoardObservation, BoardPose, board_patterns, board_pose};
 pub use codec::encode_jpeg;
 pub use error::MarkerError;
 pub use pose::{MarkerPose, marker_pose, marker_pose_candidates};

@@ -124,7 +124,8 @@ impl ToolDictionary {
         &self.name
     }
 
-    fn opencv(&self) -> &Ptr<aruco::Dictionary> {
+    /// The OpenCV dictionary.
+    pub(crate) fn opencv(&self) -> &Ptr<aruco::Dictionary> {
         match &self.inner {
             Inner::Predefined(d) => d.opencv(),
             Inner::Custom(p) => p,
@@ -195,6 +196,13 @@ pub struct Photo {
     pub width: u32,
     /// Height (px).
     pub height: u32,
+}
+
+impl Photo {
+    /// The image as OpenCV holds it.
+    pub(crate) fn mat(&self) -> &Mat {
+        &self.mat
+    }
 }
 
 /// Reads an image file as OpenCV does (`imread`, colour).

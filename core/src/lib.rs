@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![warn(missing_docs)]
 
+mod board;
 mod camera;
 mod config;
 mod counters;
@@ -15,6 +16,7 @@ mod tactile;
 mod time;
 mod truth;
 
+pub use board::{BadBoardLayout, BoardLayout, BoardMarker};
 pub use camera::{Camera, CameraIntrinsics, Frame};
 pub use config::{ConfigError, parse_toml};
 pub use counters::DecoderCounters;

@@ -383,12 +383,18 @@ pub struct TactileSample {
     /// calibration on).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub calibrated_n: Option<Vec<[f64; 3]>>,
+    /// Reference forces `[x, y, z]` (N) on every taxel, in each taxel's
+    /// frame and the order of `raw`, for sources that know them (the
+    /// simulated rig with `[sim] reference_forces = true`): the target that
+    /// `slidetrack calibrate tactile` fits counts to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_n: Option<Vec<[f64; 3]>>,
 }
 
 impl TactileSample {
     /// A scan of raw counts only, as most devices send.
     pub fn new(t: TimeNs, sequence: u64, raw: Vec<RawTaxel>) -> TactileSample {
-        TactileSample { t, sequence, raw, device_time_s: None, calibrated_n: None }
+        TactileSample { t, sequence, raw, device_time_s: None, calibrated_n: None, reference_n: None }
     }
 }
 

@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 
 use anyhow::Result;
+use slidetrack_calibration::tactile_force::TactileForceCalibration;
 use slidetrack_control::{Baseline, ControlRecord, ObserverError, ProtocolEvent, Tare, TrialObserver};
 use slidetrack_core::{
     ActuatorCommand, DecoderCounters, Frame, HandStatus, PerFinger, SimTruth, TactileInfo, TactileLayout,
@@ -12,8 +13,8 @@ use slidetrack_core::{
 use slidetrack_session::{
     ArucoDetection, CameraCalibration, ChannelHandle, ChannelMessage, CompressedImage, FingerSetpoint,
     GraspControl, GripperCommand, HandCommand, HandState, Logger, ProtocolEvent as EventMsg,
-    SimTruth as TruthMsg, TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileTare,
-    TactileZeroed, TaxelLayout, sensor_taxels,
+    SimTruth as TruthMsg, TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileReference,
+    TactileTare, TactileZeroed, TaxelLayout, sensor_taxels,
 };
 
 use crate::marker::MarkerSource;
@@ -64,6 +65,8 @@ struct Channels {
     calibrated: Option<ChannelHandle<TactileCalibrated>>,
     /// `/tactile/device_time`, registered with the first scan that carries a device time.
     device_time: Option<ChannelHandle<TactileDeviceTime>>,
+    /// `/tactile/reference`, registered with the first scan that carries reference forces.
+    reference: Option<ChannelHandle<TactileReference>>,
 }
 
 /// Live work on a trial's data beside the recording (the online trackers of
@@ -112,6 +115,11 @@ pub struct SessionObserver<'a> {
     extension: Option<Box<dyn TrialExtension + 'a>>,
     /// The tactile sensors, to name them in the tactile channels.
     layout: TactileLayout,
+    /// The rig's own force calibration: `/tactile/calibrated` from every
+    /// tared scan (and a device's own forces are not recorded).
+    force_calibration: Option<TactileForceCalibration>,
+    /// The scan counter of the latest scan.
+    last_sequence: u64,
 }
 
 impl<'a> SessionObserver<'a> {
@@ -174,6 +182,7 @@ impl<'a> SessionObserver<'a> {
             decoder: None,
             calibrated: None,
             device_time: None,
+            reference: None,
         };
         if let (Some(c), Some(m)) = (&ch.calibration, &camera) {
             logger.log_json(
@@ -193,6 +202,8 @@ impl<'a> SessionObserver<'a> {
             decoder_written: None,
             extension: None,
             layout: tactile.layout.clone(),
+            force_calibration: None,
+            last_sequence: 0,
         })
     }
 
@@ -200,6 +211,18 @@ impl<'a> SessionObserver<'a> {
     pub fn with_extension(mut self, extension: Box<dyn TrialExtension + 'a>) -> SessionObserver<'a> {
         self.extension = Some(extension);
         self
+    }
+
+    /// Records `/tactile/calibrated` from every tared scan through
+    /// `calibration` (checked against the tactile layout), instead of the
+    /// forces a device may send.
+    pub fn with_force_calibration(
+        mut self,
+        calibration: TactileForceCalibration,
+    ) -> Result<SessionObserver<'a>, slidetrack_calibration::tactile_force::TactileForceError> {
+        calibration.check_layout(&self.layout)?;
+        self.force_calibration = Some(calibration);
+        Ok(self)
     }
 
     /// Writes the decoder's latest counters at `t` unless they were written already.
@@ -226,8 +249,14 @@ impl<'a> SessionObserver<'a> {
             let ch = registered(&self.logger, &mut self.ch.device_time)?;
             self.logger.log_json(ch, s.t, s.t, seq, &msg)?;
         }
-        if let Some(msg) = TactileCalibrated::new(s, &self.layout) {
+        if let Some(msg) =
+            TactileCalibrated::new(s, &self.layout).filter(|_| self.force_calibration.is_none())
+        {
             let ch = registered(&self.logger, &mut self.ch.calibrated)?;
+            self.logger.log_json(ch, s.t, s.t, seq, &msg)?;
+        }
+        if let Some(msg) = TactileReference::new(s, &self.layout) {
+            let ch = registered(&self.logger, &mut self.ch.reference)?;
             self.logger.log_json(ch, s.t, s.t, seq, &msg)?;
         }
         Ok(())
@@ -257,6 +286,7 @@ impl TrialObserver for SessionObserver<'_> {
 
     fn on_tactile(&mut self, s: &TactileSample) -> Result<(), ObserverError> {
         self.stats.scans += 1;
+        self.last_sequence = s.sequence;
         let seq = (s.sequence & u64::from(u32::MAX)) as u32;
         self.logger.log_json(&self.ch.raw, s.t, s.t, seq, &TactileRaw::new(s, &self.layout))?;
         self.log_device_extras(s, seq)?;
@@ -292,6 +322,16 @@ impl TrialObserver for SessionObserver<'_> {
             t,
             &TactileZeroed { sensors: sensor_taxels(&self.layout, zeroed) },
         )?;
+        if let Some(cal) = &self.force_calibration {
+            let forces = cal.forces_n(zeroed);
+            let msg = TactileCalibrated {
+                sequence: self.last_sequence,
+                sensors: sensor_taxels(&self.layout, &forces),
+            };
+            let seq = (self.last_sequence & u64::from(u32::MAX)) as u32;
+            let ch = registered(&self.logger, &mut self.ch.calibrated)?;
+            self.logger.log_json(ch, t, t, seq, &msg)?;
+        }
         match self.extension.as_mut() {
             Some(x) => x.on_zeroed(t, zeroed),
             None => Ok(()),

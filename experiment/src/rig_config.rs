@@ -2,11 +2,12 @@
 //! geometry and protocol settings. Every table has defaults; a file names only
 //! what it changes.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use slidetrack_control::ProtocolSettings;
+use slidetrack_core::BoardLayout;
 use slidetrack_drivers::HwRigConfig;
 use slidetrack_drivers::config::CameraDevice;
 use slidetrack_drivers::rgbd_config::RgbdCameraConfig;
@@ -35,21 +36,34 @@ pub struct RigConfig {
     /// `[hw.camera] kind = "rgbd"`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rgbd: Option<RgbdCameraConfig>,
+    /// The rig's tactile force calibration file (`slidetrack calibrate
+    /// tactile --out`), relative to the rig TOML's directory: with it,
+    /// trials record `/tactile/calibrated` (N).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tactile_calibration: Option<PathBuf>,
+    /// The marker fixed to the hand for `calibrate hand`; absent by default.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hand_target: Option<crate::hand_target::HandTargetConfig>,
 }
 
-/// The ArUco marker on the object (its size comes with the object).
+/// The ArUco target on the object: one marker (its size comes with the
+/// object), or a board of markers (`[marker.board]`, sizes in the table).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MarkerConfig {
     /// OpenCV predefined dictionary name.
     pub dictionary: String,
-    /// Marker id.
+    /// Marker id (the single marker; unused with a board).
     pub id: u32,
+    /// A GridBoard or ChArUco board instead of the single marker: its pose
+    /// from every marker or corner seen is the ground truth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub board: Option<BoardLayout>,
 }
 
 impl Default for MarkerConfig {
     fn default() -> Self {
-        MarkerConfig { dictionary: "DICT_6X6_250".into(), id: 7 }
+        MarkerConfig { dictionary: "DICT_6X6_250".into(), id: 7, board: None }
     }
 }
 
@@ -80,7 +94,14 @@ impl RigConfig {
         if let (Some(rgbd), Some(dir)) = (cfg.rgbd.as_mut(), path.parent()) {
             resolve_rgbd_paths(rgbd, dir);
         }
+        if let Some(cal) = cfg.tactile_calibration.as_mut().filter(|c| c.is_relative()) {
+            *cal = path.parent().unwrap_or(Path::new("")).join(&cal);
+        }
         cfg.validate().with_context(|| format!("invalid rig config {}", path.display()))?;
+        if let Some(cal) = &cfg.tactile_calibration {
+            crate::tactile_force::apply::load_calibration(cal)
+                .with_context(|| format!("rig config {}: tactile_calibration", path.display()))?;
+        }
         Ok(cfg)
     }
 
@@ -125,6 +146,9 @@ impl RigConfig {
             "hw.camera kind = \"rgbd\" is the camera of the [rgbd] table, and there is none \
              (docs/examples/rgbd-rig.toml shows one)"
         );
+        if let Some(board) = &self.marker.board {
+            board.validate().context("marker.board")?;
+        }
         Ok(())
     }
 }
@@ -185,6 +209,24 @@ mod tests {
             slidetrack_core::parse_toml(&readme[start..end], "docs/configuration.md").unwrap();
         cfg.validate().unwrap();
         assert_eq!(cfg.marker.dictionary, "DICT_6X6_250");
+    }
+
+    #[test]
+    fn a_marker_table_may_describe_a_board_and_the_single_marker_serialises_as_before() {
+        let single = toml::to_string(&RigConfig::default()).unwrap();
+        assert!(single.contains("[marker]\ndictionary = \"DICT_6X6_250\"\nid = 7\n"), "{single}");
+        assert!(!single.contains("board"), "{single}");
+        let text = "[marker]\ndictionary = \"DICT_5X5_100\"\n[marker.board]\nkind = \"charuco\"\n\
+                    squares_x = 5\nsquares_y = 7\nsquare_length_m = 0.04\nmarker_length_m = 0.02\n";
+        let cfg: RigConfig = slidetrack_core::parse_toml(text, "rig.toml").unwrap();
+        cfg.validate().unwrap();
+        assert!(matches!(cfg.marker.board, Some(BoardLayout::Charuco { squares_x: 5, .. })));
+        let back: RigConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
+        assert_eq!(back, cfg);
+        let bad = text.replace("marker_length_m = 0.02", "marker_length_m = 0.05");
+        let cfg: RigConfig = slidetrack_core::parse_toml(&bad, "rig.toml").unwrap();
+        let e = format!("{:#}", cfg.validate().unwrap_err());
+        assert!(e.contains("marker.board") && e.contains("marker_length_m"), "{e}");
     }
 
     #[test]

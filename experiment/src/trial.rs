@@ -5,6 +5,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Instant, SystemTime};
 
 use anyhow::{Context, Result};
+use slidetrack_calibration::tactile_force::TactileForceCalibration;
 use slidetrack_control::{AbortReason, TrialOutcome, run_trial};
 use slidetrack_core::{DeviceError, TactileInfo, TimeNs};
 use slidetrack_session::{Logger, Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TaxelLayout};
@@ -141,11 +142,15 @@ pub fn record_trial_with<'a>(
     metadata.insert(CYCLES_DURATION_KEY.into(), spec.duration_s.to_string());
     metadata.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(&tactile_info).to_json());
     metadata.extend(extra_metadata);
+    let force_calibration = force_calibration(spec, &tactile_info)?;
     let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
     start_recording(rgbd.as_mut(), &recorder.logger())?;
     let with_truth = rig.truth.is_some();
     let mut observer =
         SessionObserver::new(recorder.logger(), &tactile_info, markers, with_truth, Box::new(progress))?;
+    if let Some(calibration) = force_calibration {
+        observer = observer.with_force_calibration(calibration)?;
+    }
     if let Some(make) = extension {
         observer = observer.with_extension(make(&recorder.logger(), &tactile_info)?);
     }
@@ -168,6 +173,17 @@ pub fn record_trial_with<'a>(
         wall_s: started.elapsed().as_secs_f64(),
         images_dropped,
     })
+}
+
+/// The rig's tactile force calibration, checked against its tactile
+/// sensors before anything is recorded.
+fn force_calibration(spec: &TrialSpec, tactile: &TactileInfo) -> Result<Option<TactileForceCalibration>> {
+    let Some(path) = &spec.rig.tactile_calibration else { return Ok(None) };
+    let calibration = crate::tactile_force::apply::load_calibration(path)?;
+    calibration
+        .check_layout(&tactile.layout)
+        .with_context(|| format!("tactile_calibration {}", path.display()))?;
+    Ok(Some(calibration))
 }
 
 /// Makes `dir` (and parents) and checks that a file can be written in it.

@@ -50,8 +50,8 @@ pub use live::{LiveChannel, LiveReceiver, LiveRecord, LiveTap, LiveTapStats, Tap
 pub use messages::{
     ChannelMessage, ChannelSpec, FingerSetpoint, GraspControl, GripperCommand, GripperState, HandCommand,
     HandState, ProtocolEvent, RecorderStats, SensorTaxels, SensorValues, SimTruth, TAXEL_LAYOUT_KEY,
-    TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileTare, TactileZeroed,
-    TaxelLayout, Xyz, channel_specs, scan_of, sensor_taxels,
+    TactileCalibrated, TactileDecoder, TactileDeviceTime, TactileRaw, TactileReference, TactileTare,
+    TactileZeroed, TaxelLayout, Xyz, channel_specs, scan_of, sensor_taxels,
 };
 pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
 pub use reader::{MessageReader, ReadOptions, read_channel, read_json, release_time};

@@ -27,6 +27,7 @@ pub fn channel_specs() -> Vec<ChannelSpec> {
         ChannelSpec::of::<TactileZeroed>(),
         ChannelSpec::of::<TactileDecoder>(),
         ChannelSpec::of::<TactileCalibrated>(),
+        ChannelSpec::of::<TactileReference>(),
         ChannelSpec::of::<TactileDeviceTime>(),
         ChannelSpec::of::<GraspControl>(),
         ChannelSpec::of::<HandCommand>(),
@@ -321,6 +322,36 @@ impl TactileCalibrated {
 impl ChannelMessage for TactileCalibrated {
     const TOPIC: &'static str = "/tactile/calibrated";
     const SCHEMA_NAME: &'static str = "slidetrack.TactileCalibrated";
+    fn json_schema() -> Value {
+        derived::<Self>(Self::SCHEMA_NAME)
+    }
+}
+
+/// `/tactile/reference`: the reference force on every taxel of one scan
+/// (N, in each taxel's frame), the target `slidetrack calibrate tactile`
+/// fits counts to. The simulated rig writes it with `[sim] reference_forces
+/// = true`, at the `log_time` of the scan's `/tactile/raw` message; a real
+/// rig's reference (a force-torque sensor under the patch, known weights)
+/// is written in the same form by whoever records it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct TactileReference {
+    /// The scan counter, as in `/tactile/raw`.
+    pub sequence: u64,
+    /// Force on every taxel (N), per sensor in layout order, in each taxel's frame.
+    pub sensors: SensorTaxels<f64>,
+}
+
+impl TactileReference {
+    /// The message of `sample`, a scan of `layout`, if it carries reference forces.
+    pub fn new(sample: &TactileSample, layout: &TactileLayout) -> Option<TactileReference> {
+        let forces = sample.reference_n.as_ref()?;
+        Some(TactileReference { sequence: sample.sequence, sensors: sensor_taxels(layout, forces) })
+    }
+}
+
+impl ChannelMessage for TactileReference {
+    const TOPIC: &'static str = "/tactile/reference";
+    const SCHEMA_NAME: &'static str = "slidetrack.TactileReference";
     fn json_schema() -> Value {
         derived::<Self>(Self::SCHEMA_NAME)
     }

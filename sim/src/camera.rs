@@ -28,12 +28,11 @@
 //! caller as a [`MarkerPattern`] (the calibration crate extracts them from
 //! OpenCV's dictionaries).
 
-use slidetrack_core::{BadMarkerPattern, JpegError, PlacementError};
-use thiserror::Error;
-
 mod blocks;
 mod board;
+mod board_face;
 mod config;
+mod error;
 mod face;
 mod object;
 mod raster;
@@ -44,53 +43,8 @@ mod texture;
 mod tests;
 
 pub use board::Chessboard;
+pub use board_face::BoardPrint;
 pub use config::{BackgroundConfig, SimCameraConfig};
+pub use error::SimCameraError;
 pub use object::ObjectAppearance;
 pub use render::SimCameraRenderer;
-
-/// Why a simulated camera could not be built or could not encode a frame.
-#[derive(Debug, Error)]
-#[non_exhaustive]
-pub enum SimCameraError {
-    /// The image size is zero or too large for JPEG (65535 px per side).
-    #[error("image size {width}x{height} px is not usable (1..=65535 px per side)")]
-    BadImageSize {
-        /// Width (px).
-        width: u32,
-        /// Height (px).
-        height: u32,
-    },
-    /// A focal length is not a positive finite number.
-    #[error("focal lengths fx = {fx} px, fy = {fy} px must be positive")]
-    BadFocalLength {
-        /// Focal length along x (px).
-        fx: f64,
-        /// Focal length along y (px).
-        fy: f64,
-    },
-    /// A configuration number is outside its valid range.
-    #[error("{what} = {value} is out of range ({expected})")]
-    OutOfRange {
-        /// Name of the setting, as in the configuration file.
-        what: &'static str,
-        /// The value given.
-        value: f64,
-        /// The valid range, in words.
-        expected: &'static str,
-    },
-    /// The camera placement gives no pose.
-    #[error(transparent)]
-    Placement(#[from] PlacementError),
-    /// The background plane normal has zero length.
-    #[error("background plane normal {normal_in_hand:?} has zero length")]
-    BadBackgroundNormal {
-        /// The normal as given, in the hand frame.
-        normal_in_hand: [f64; 3],
-    },
-    /// The marker pattern's bit count does not match its size.
-    #[error(transparent)]
-    Marker(#[from] BadMarkerPattern),
-    /// The JPEG encoder refused the image.
-    #[error(transparent)]
-    Jpeg(#[from] JpegError),
-}

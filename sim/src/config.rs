@@ -40,6 +40,11 @@ pub struct SimRigConfig {
     pub middle: FingerConfig,
     /// The tactile modules.
     pub tactile: TactileModelConfig,
+    /// Give every tactile scan the force on each taxel (N) as its reference
+    /// (`/tactile/reference`), to fit `slidetrack calibrate tactile` on.
+    /// Off by default: sessions without it are as before, byte for byte.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub reference_forces: bool,
 }
 
 impl Default for SimRigConfig {
@@ -57,6 +62,7 @@ impl Default for SimRigConfig {
             index: FingerConfig::default(),
             middle: FingerConfig::default(),
             tactile: TactileModelConfig::default(),
+            reference_forces: false,
         }
     }
 }

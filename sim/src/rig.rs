@@ -59,6 +59,7 @@ impl SimDevices {
                 hand: cfg.hand,
                 sequence: 0,
                 truth: slot.clone(),
+                reference_forces: cfg.reference_forces,
             },
             hand,
             truth: SimTruthTap { slot },
@@ -170,6 +171,8 @@ pub struct SimTactile {
     hand: HandKind,
     sequence: u64,
     truth: Arc<Mutex<Option<SimTruth>>>,
+    /// Attach each taxel's force to every scan (`[sim] reference_forces`).
+    reference_forces: bool,
 }
 
 /// What the simulated tactile source is: the thesis's single module per
@@ -216,12 +219,13 @@ impl TactileSource for SimTactile {
         world.advance_to(t);
         let raw = world.scan_tactile();
         let truth = world.truth();
+        let reference_n = self.reference_forces.then(|| world.taxel_forces_n());
         drop(world);
         if let Ok(mut slot) = self.truth.lock() {
             *slot = Some(truth);
         }
         self.sequence = sequence;
-        Ok(TactileSample::new(t, sequence, raw))
+        Ok(TactileSample { reference_n, ..TactileSample::new(t, sequence, raw) })
     }
 
     fn info(&self) -> TactileInfo {

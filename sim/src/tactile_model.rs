@@ -8,7 +8,7 @@
 //! the object slides, u16 quantisation and rare spikes.
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
-use rand::RngExt;
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
@@ -54,6 +54,13 @@ pub struct TactileModelConfig {
     /// A patch of taxels per fingertip instead of the thesis's single module
     /// (`None`, the default).
     pub patch: Option<PatchConfig>,
+    /// Fixes each module's cross-talk and gains, as a real kit's are: drawn
+    /// from this seed (and the module's finger and taxel) instead of from
+    /// each trial's draws (`None`, the default: redrawn every trial, and
+    /// every trial's data as before). Baselines and drift stay per trial.
+    /// A rig to calibrate forces on (`slidetrack calibrate tactile`) sets it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hardware_seed: Option<u64>,
 }
 
 /// A fingertip patch of `rows x cols` taxels (like XELA's uSPa44: 4 x 4),
@@ -119,8 +126,20 @@ impl Default for TactileModelConfig {
             spike_probability: 2e-5,
             spike_counts: [400.0, 2500.0],
             patch: None,
+            hardware_seed: None,
         }
     }
+}
+
+/// The seed of module `taxel` of `finger` under a hardware seed (SplitMix64 mixing).
+fn hardware_stream(seed: u64, finger: usize, taxel: usize) -> u64 {
+    let mut z = seed
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add((finger as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9))
+        .wrapping_add((taxel as u64).wrapping_mul(0x94D0_49BB_1331_11EB));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
 }
 
 /// What the fingertip feels, in the contact frame.
@@ -139,6 +158,8 @@ pub struct ContactDeformation {
 pub struct TactileModule {
     /// Contact frame -> module channels (mount rotation, cross-talk and gain jitter).
     sensor_from_contact: Matrix3<f64>,
+    /// Contact frame -> module frame (the mounting rotation alone).
+    module_from_contact: Rotation3<f64>,
     baseline: Vector3<f64>,
     drift: Vector3<f64>,
     drift_rate: Vector3<f64>,
@@ -146,25 +167,35 @@ pub struct TactileModule {
 }
 
 impl TactileModule {
-    /// Draws a module for one grasp: baseline, cross-talk, gain and drift rates.
+    /// Draws module `taxel` of `finger` for one grasp: baseline, cross-talk,
+    /// gain and drift rates, all from `rng`; with `cfg.hardware_seed`, the
+    /// cross-talk and gains from that seed instead (the same every trial).
     pub fn draw(
         cfg: &TactileModelConfig,
         finger: usize,
+        taxel: usize,
         gain_rel: f64,
         rng: &mut ChaCha8Rng,
     ) -> TactileModule {
         let [r, p, y] = cfg.mount_rpy_deg[finger].map(f64::to_radians);
         let mount = Rotation3::from_euler_angles(r, p, y);
+        let mut fixed =
+            cfg.hardware_seed.map(|seed| ChaCha8Rng::seed_from_u64(hardware_stream(seed, finger, taxel)));
+        let hardware = match fixed.as_mut() {
+            Some(h) => h,
+            None => &mut *rng,
+        };
         let mut crosstalk = Matrix3::identity();
         for i in 0..3 {
             for j in 0..3 {
                 if i != j {
-                    crosstalk[(i, j)] = rng.random_range(-cfg.crosstalk_max..=cfg.crosstalk_max);
+                    crosstalk[(i, j)] = hardware.random_range(-cfg.crosstalk_max..=cfg.crosstalk_max);
                 }
             }
         }
-        let gains =
-            Matrix3::from_diagonal(&Vector3::from_fn(|_, _| 1.0 + rng.random_range(-gain_rel..=gain_rel)));
+        let gains = Matrix3::from_diagonal(&Vector3::from_fn(|_, _| {
+            1.0 + hardware.random_range(-gain_rel..=gain_rel)
+        }));
         let baseline = Vector3::from_fn(|i, _| {
             let [lo, hi] = cfg.baseline_counts[i];
             rng.random_range(lo..=hi).round()
@@ -174,6 +205,7 @@ impl TactileModule {
         });
         TactileModule {
             sensor_from_contact: gains * crosstalk * mount.matrix(),
+            module_from_contact: mount,
             baseline,
             drift: Vector3::zeros(),
             drift_rate,
@@ -243,6 +275,14 @@ impl TactileModule {
         out
     }
 
+    /// A force given in the contact frame (slide, lateral, normal), in the
+    /// module's frame (x, y, z): the mounting rotation alone, without the
+    /// chip's gains and cross-talk (N in, N out).
+    pub fn force_in_module_frame(&self, force_in_contact_n: [f64; 3]) -> [f64; 3] {
+        let v = self.module_from_contact * Vector3::from(force_in_contact_n);
+        [v.x, v.y, v.z]
+    }
+
     /// The module's baseline for this grasp (counts), without drift.
     pub fn baseline(&self) -> [f64; 3] {
         [self.baseline.x, self.baseline.y, self.baseline.z]
@@ -252,7 +292,6 @@ impl TactileModule {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
 
     fn quiet() -> TactileModelConfig {
         TactileModelConfig {
@@ -271,7 +310,7 @@ mod tests {
     fn normal_response_is_the_inverse_cube_law() {
         let cfg = quiet();
         let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let mut m = TactileModule::draw(&cfg, 0, 0.0, &mut rng);
+        let mut m = TactileModule::draw(&cfg, 0, 0, 0.0, &mut rng);
         let b = m.baseline();
         let d = ContactDeformation { indentation_m: 0.0005, ..Default::default() };
         let raw = m.sample(&cfg, &d, 0.0, 0.01, &mut rng);
@@ -285,7 +324,7 @@ mod tests {
         cfg.mount_rpy_deg[1] = [0.0, 0.0, 30.0];
         cfg.bulge_per_indentation = 0.0;
         let mut rng = ChaCha8Rng::seed_from_u64(2);
-        let mut m = TactileModule::draw(&cfg, 1, 0.0, &mut rng);
+        let mut m = TactileModule::draw(&cfg, 1, 0, 0.0, &mut rng);
         let b = m.baseline();
         let d = ContactDeformation { shear_m: 1e-4, ..Default::default() };
         let raw = m.sample(&cfg, &d, 0.0, 0.01, &mut rng);
@@ -296,11 +335,27 @@ mod tests {
     }
 
     #[test]
+    fn a_hardware_seed_fixes_cross_talk_and_gains_but_not_the_baseline() {
+        let cfg = TactileModelConfig { hardware_seed: Some(9), ..TactileModelConfig::default() };
+        let draw = |trial: u64, taxel: usize| {
+            TactileModule::draw(&cfg, 1, taxel, 0.08, &mut ChaCha8Rng::seed_from_u64(trial))
+        };
+        let (a, b) = (draw(1, 0), draw(2, 0));
+        assert_eq!(a.sensor_from_contact, b.sensor_from_contact, "the same hardware in every trial");
+        assert_ne!(a.baseline(), b.baseline(), "a new baseline every grasp");
+        assert_ne!(a.sensor_from_contact, draw(1, 1).sensor_from_contact, "each taxel its own");
+        let free = TactileModelConfig::default();
+        let redrawn =
+            |trial: u64| TactileModule::draw(&free, 1, 0, 0.08, &mut ChaCha8Rng::seed_from_u64(trial));
+        assert_ne!(redrawn(1).sensor_from_contact, redrawn(2).sensor_from_contact, "redrawn without a seed");
+    }
+
+    #[test]
     fn counts_saturate_instead_of_wrapping() {
         let mut cfg = quiet();
         cfg.baseline_counts = [[65000.0, 65000.0]; 3];
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let mut m = TactileModule::draw(&cfg, 2, 0.0, &mut rng);
+        let mut m = TactileModule::draw(&cfg, 2, 0, 0.0, &mut rng);
         let d = ContactDeformation { indentation_m: 0.0015, ..Default::default() };
         assert_eq!(m.sample(&cfg, &d, 0.0, 0.01, &mut rng)[2], u16::MAX);
     }

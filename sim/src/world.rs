@@ -94,7 +94,7 @@ impl SimWorld {
         let sensed_fingers = if gripper.is_some() { 2 } else { 3 };
         let modules = [0, 1, 2].map(|f| {
             (0..if f < sensed_fingers { taxel_shares.len() } else { 0 })
-                .map(|_| TactileModule::draw(&cfg.tactile, f, j.sensor_gain_rel, &mut rng))
+                .map(|taxel| TactileModule::draw(&cfg.tactile, f, taxel, j.sensor_gain_rel, &mut rng))
                 .collect()
         });
         let surfaces = [0, 1, 2].map(|_| SurfaceProfile::draw(&object.surface, &mut rng));
@@ -323,6 +323,33 @@ impl SimWorld {
         }
     }
 
+    /// The force on every taxel now (N), in each module's frame (x, y, z),
+    /// in the order of [`SimWorld::scan_tactile`]: the contact's force
+    /// (tangential along the sliding axis, none lateral, normal) split over
+    /// a patch's taxels by their shares (the shares of a patch sum to its
+    /// contact force) and turned by the module's mounting rotation. The
+    /// reference of `slidetrack calibrate tactile`; draws no random numbers.
+    pub fn taxel_forces_n(&self) -> Vec<[f64; 3]> {
+        let normal = self.normal_n();
+        let taxels = self.taxel_shares.len() as f64;
+        let mut out = Vec::with_capacity(3 * self.taxel_shares.len());
+        for (f, (modules, normal_n)) in self.modules.iter().zip(normal).enumerate() {
+            let tangential_n = self.tangential_n(f, normal_n);
+            for (module, share) in modules.iter().zip(&self.taxel_shares) {
+                let k = share / taxels;
+                out.push(module.force_in_module_frame([k * tangential_n, 0.0, k * normal_n]));
+            }
+        }
+        out
+    }
+
+    /// The contact force of finger `f` along the sliding axis (N): friction,
+    /// and on a sloped patch of texture the lean of the normal force.
+    fn tangential_n(&self, f: usize, normal_n: f64) -> f64 {
+        let (_, slope) = self.surfaces[f].height_and_slope(self.position_m);
+        self.friction_n[f] + normal_n * slope
+    }
+
     /// One scan of every taxel at the current time, finger after finger
     /// (thumb, index, middle; on a gripper: left pad, right pad), taxels row
     /// by row.
@@ -336,8 +363,7 @@ impl SimWorld {
         for f in 0..3 {
             // On a sloped patch of texture the contact force leans along the
             // sliding axis and shears the pad with it.
-            let (_, slope) = self.surfaces[f].height_and_slope(self.position_m);
-            let tangential_n = self.friction_n[f] + normal[f] * slope;
+            let tangential_n = self.tangential_n(f, normal[f]);
             let deformation = ContactDeformation {
                 indentation_m: indentation[f],
                 shear_m: tangential_n / self.pad_shear_stiffness_n_per_m(f),

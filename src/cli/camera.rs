@@ -18,6 +18,43 @@ pub enum CalibrateCommand {
     /// Camera intrinsics (pinhole + plumb-bob distortion) from pattern views:
     /// image files, a V4L2 camera, or the simulated camera.
     Camera(CalibrateCameraArgs),
+    /// Tactile counts to newtons: a map per taxel (per axis, with
+    /// cross-talk) fitted on sessions with reference forces, or applied to
+    /// a session (`--apply`).
+    Tactile(super::tactile::CalibrateTactileArgs),
+    /// The camera's pose in the hand frame from a marker fixed to the hand
+    /// (`[hand_target]` in the rig TOML); prints a `[camera] placement` line.
+    Hand(CalibrateHandArgs),
+}
+
+/// Where `calibrate hand` takes its frames from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum HandRigArg {
+    /// The simulated camera rendering the hand's target.
+    Sim,
+}
+
+/// Arguments of `calibrate hand`.
+#[derive(Debug, Args)]
+pub struct CalibrateHandArgs {
+    /// The rig whose camera sees the hand's target.
+    #[arg(long, value_enum, default_value_t = HandRigArg::Sim)]
+    pub rig: HandRigArg,
+    /// Rig configuration (TOML) with [camera] and [hand_target].
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Frames to take.
+    #[arg(long, default_value_t = 30)]
+    pub frames: usize,
+    /// Seed of the simulated camera's noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Also write `[camera] placement = ...` (TOML) to this file.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the result as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Output format of the camera calibration.
@@ -99,7 +136,8 @@ pub struct ArucoArgs {
 /// The marker tools.
 #[derive(Debug, Subcommand)]
 pub enum ArucoCommand {
-    /// Detect markers in an image; with intrinsics and a marker size, their poses too.
+    /// Detect markers in an image; with intrinsics and a marker size, their
+    /// poses too; with intrinsics and a board, the board's pose.
     Detect(ArucoDetectArgs),
 }
 
@@ -118,6 +156,7 @@ pub enum RefineArg {
 
 /// Arguments of `aruco detect`.
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("target").args(["marker_size", "board"])))]
 pub struct ArucoDetectArgs {
     /// Image file.
     pub image: PathBuf,
@@ -125,11 +164,16 @@ pub struct ArucoDetectArgs {
     #[arg(long, default_value = "DICT_6X6_250")]
     pub dict: String,
     /// Camera calibration (ROS camera_info or OpenCV YAML), for poses.
-    #[arg(long, requires = "marker_size")]
+    #[arg(long, requires = "target")]
     pub camera: Option<PathBuf>,
     /// Side of the markers' black square (m), for poses.
     #[arg(long, requires = "camera")]
     pub marker_size: Option<f64>,
+    /// A board's layout (TOML, the keys of a rig's [marker.board]: kind =
+    /// "grid" or "charuco" and its sizes), for the board's pose from all its
+    /// markers or ChArUco corners.
+    #[arg(long, requires = "camera")]
+    pub board: Option<PathBuf>,
     /// OpenCV detector parameters file (detector_params.yml).
     #[arg(long)]
     pub params: Option<PathBuf>,

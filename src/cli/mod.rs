@@ -12,6 +12,7 @@ mod live;
 mod parse_tests;
 mod session;
 mod slip;
+mod tactile;
 mod vision;
 
 use clap::{Parser, Subcommand};
@@ -24,6 +25,7 @@ pub use import::*;
 pub use live::*;
 pub use session::*;
 pub use slip::*;
+pub use tactile::*;
 pub use vision::*;
 
 /// Controlled-sliding grasp experiments with tactile sensors and cameras:
@@ -65,7 +67,7 @@ pub enum Command {
     Vision(VisionArgs),
     /// Build the ground truth of sessions from the ArUco marker (RTS smoother).
     Label(LabelArgs),
-    /// Calibrate a camera's intrinsics from views of a chessboard, ChArUco board or circle grid.
+    /// Calibrate a camera's intrinsics from pattern views, or tactile counts to newtons.
     Calibrate(CalibrateArgs),
     /// ArUco marker tools: detect markers (and their poses) in an image.
     Aruco(ArucoArgs),

@@ -3,7 +3,7 @@
 use anyhow::Result;
 use serde_json::json;
 use slidetrack_experiment::image_markers::{
-    ImageMarkerOptions, MarkerDetection, MarkerPose, Refinement, detect_in_image,
+    ImageBoard, ImageMarkerOptions, MarkerDetection, MarkerPose, Refinement, detect_in_image,
 };
 
 use crate::cli::{ArucoArgs, ArucoCommand, ArucoDetectArgs, RefineArg};
@@ -27,6 +27,7 @@ fn detect(args: &ArucoDetectArgs) -> Result<()> {
         },
         camera: args.camera.as_deref(),
         marker_size_m: args.marker_size,
+        board: args.board.as_deref(),
     })?;
     if args.json {
         let list: Vec<_> = found.markers.iter().map(|(m, p)| marker_json(m, p.as_ref())).collect();
@@ -36,6 +37,7 @@ fn detect(args: &ArucoDetectArgs) -> Result<()> {
             "height": found.height,
             "dictionary": found.dictionary,
             "markers": list,
+            "board": found.board.as_ref().map(board_json),
         });
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
@@ -53,7 +55,49 @@ fn detect(args: &ArucoDetectArgs) -> Result<()> {
         });
         println!("  id {:>4}: corners {}{pose}", m.id, corners.join(" "));
     }
+    if let Some(b) = &found.board {
+        println!("{}", board_text(b));
+    }
     Ok(())
+}
+
+fn board_text(b: &ImageBoard) -> String {
+    let seen =
+        format!("board: {} marker(s), {} point(s)", b.observation.markers, b.observation.image_px.len());
+    match &b.pose {
+        None => format!("{seen}; too few for a pose"),
+        Some(p) => {
+            let t = p.camera_from_board.translation.vector;
+            format!(
+                "{seen}; origin at ({:.4}, {:.4}, {:.4}) m in the camera frame, reprojection {:.2} px",
+                t.x, t.y, t.z, p.reprojection_error_px
+            )
+        }
+    }
+}
+
+fn board_json(b: &ImageBoard) -> serde_json::Value {
+    let pose = b.pose.as_ref().map(|p| {
+        let (t, q) = (p.camera_from_board.translation.vector, p.camera_from_board.rotation);
+        let c = p.camera_from_centre(&b.layout);
+        let (ct, cq) = (c.translation.vector, c.rotation);
+        let r = q.scaled_axis();
+        json!({
+            "board_in_camera": { "position_m": [t.x, t.y, t.z], "rvec": [r.x, r.y, r.z],
+                "orientation": { "x": q.i, "y": q.j, "z": q.k, "w": q.w } },
+            "centre_in_camera": { "position_m": [ct.x, ct.y, ct.z],
+                "orientation": { "x": cq.i, "y": cq.j, "z": cq.k, "w": cq.w } },
+            "reprojection_error_px": p.reprojection_error_px,
+            "points": p.points,
+        })
+    });
+    json!({
+        "layout": b.layout,
+        "markers": b.observation.markers,
+        "ids": b.observation.ids,
+        "image_px": b.observation.image_px,
+        "pose": pose,
+    })
 }
 
 fn marker_json(m: &MarkerDetection, pose: Option<&MarkerPose>) -> serde_json::Value {

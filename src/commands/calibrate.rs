@@ -1,4 +1,5 @@
-//! `slidetrack calibrate camera`: intrinsics from pattern views, to ROS or OpenCV YAML.
+//! `slidetrack calibrate camera`: intrinsics from pattern views, to ROS or OpenCV YAML
+//! (`calibrate tactile` is in `calibrate_tactile`).
 
 use anyhow::Result;
 use serde_json::json;
@@ -6,12 +7,48 @@ use slidetrack_experiment::camera_calibration::{
     CalibrationFormat, CameraCalibration, CameraCalibrationOptions, calibrate_camera,
 };
 
-use crate::cli::{CalibrateArgs, CalibrateCameraArgs, CalibrateCommand, CalibrationFormatArg};
+use slidetrack_experiment::hand_calibration::{HandCalibrationOptions, calibrate_hand_sim};
+
+use crate::cli::{
+    CalibrateArgs, CalibrateCameraArgs, CalibrateCommand, CalibrateHandArgs, CalibrationFormatArg,
+};
 
 pub fn run(args: &CalibrateArgs, quiet: bool) -> Result<()> {
     match &args.what {
         CalibrateCommand::Camera(a) => camera(a, quiet),
+        CalibrateCommand::Tactile(a) => super::calibrate_tactile::run(a, quiet),
+        CalibrateCommand::Hand(a) => hand(a),
     }
+}
+
+fn hand(args: &CalibrateHandArgs) -> Result<()> {
+    let options = HandCalibrationOptions {
+        config: args.config.clone(),
+        frames: args.frames,
+        seed: args.seed,
+        out: args.out.clone(),
+    };
+    let run = calibrate_hand_sim(&options)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&run)?);
+        return Ok(());
+    }
+    let c = &run.calibration;
+    println!("{}", run.placement_toml);
+    println!(
+        "frames used {} (rejected: {} reprojection, {} outliers); standard error {:.3} mm, {:.4} deg; per-frame spread {:.3} mm, {:.4} deg",
+        c.frames_used,
+        c.frames_rejected_reprojection,
+        c.frames_rejected_outlier,
+        c.translation_std_error_mm,
+        c.rotation_std_error_deg,
+        c.translation_spread_mm,
+        c.rotation_spread_deg
+    );
+    if let Some((mm, deg)) = run.sim_error_mm_deg {
+        println!("error against the simulated camera's placement: {mm:.3} mm, {deg:.4} deg");
+    }
+    Ok(())
 }
 
 fn camera(args: &CalibrateCameraArgs, quiet: bool) -> Result<()> {

@@ -69,7 +69,7 @@ fn decode_can_log(
     let mut decoder = CanLogDecoder::new(reader, &cfg, args.interface.clone())
         .context("the decoder configuration")?
         .with_deltas(args.time_deltas);
-    let info = tactile_info(name, cfg.rate_hz, &cfg.sensors, &cfg.fingers);
+    let info = tactile_info(name, cfg.rate_hz, &cfg.sensors, cfg.fingers.as_ref());
     let mut out = Output::create(args, &info, &TactileDevice::Can(cfg.clone()))?;
     while let Some(sample) = decoder.next() {
         out.scan(&sample, &decoder.counters())?;
@@ -103,7 +103,7 @@ fn decode_serial_capture(
     cfg.rate_hz = rate_hz;
     check(TactileDevice::Serial(cfg.clone()))?;
     let mut decoder = SerialCaptureDecoder::new(reader, &cfg, rate_hz);
-    let info = tactile_info(name, rate_hz, &cfg.sensors, &cfg.fingers);
+    let info = tactile_info(name, rate_hz, &cfg.sensors, cfg.fingers.as_ref());
     let mut out = Output::create(args, &info, &TactileDevice::Serial(cfg.clone()))?;
     while let Some(sample) = decoder.next() {
         out.scan(&sample, &decoder.counters())?;

@@ -4,6 +4,7 @@
 mod aruco;
 mod bench;
 mod calibrate;
+mod calibrate_tactile;
 mod collect;
 mod decode;
 mod demo;

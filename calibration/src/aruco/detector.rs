@@ -5,7 +5,8 @@ use opencv::core::{Mat, MatTraitConst, Point2f, Ptr, Rect, Size, TermCriteria, T
 use opencv::imgproc;
 use slidetrack_core::{Image, PixelFormat};
 
-use super::{Dictionary, MarkerDetection, PixelRoi};
+use super::detection::{MarkerDetection, PixelRoi};
+use super::dictionary::Dictionary;
 use crate::error::{MarkerError, OpenCvContext};
 
 /// How detected corners are refined.
@@ -163,7 +164,7 @@ impl MarkerDetector {
     ) -> Result<Vec<MarkerDetection>, MarkerError> {
         aruco::detect_markers(
             gray,
-            &self.dictionary.inner,
+            self.dictionary.opencv(),
             &mut self.corners,
             &mut self.ids,
             &self.parameters,

@@ -2,6 +2,7 @@ use opencv::core::{MatTraitConst, MatTraitConstManual};
 use slidetrack_core::{Image, MarkerPattern, PixelFormat};
 
 use super::*;
+use crate::error::MarkerError;
 
 /// A gray image of `pattern` drawn from its bits: `px` pixels per cell, a
 /// black border cell, a white quiet zone of two cells.

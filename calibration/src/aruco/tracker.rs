@@ -13,7 +13,9 @@
 
 use slidetrack_core::Image;
 
-use super::{Dictionary, MarkerDetection, MarkerDetector, PixelRoi};
+use super::detection::{MarkerDetection, PixelRoi};
+use super::detector::MarkerDetector;
+use super::dictionary::Dictionary;
 use crate::error::MarkerError;
 
 /// Margin of the region of interest around the previous marker, as a

@@ -73,7 +73,7 @@ impl CanTactile {
         Ok(CanTactile {
             device: device.clone(),
             decoder: CanLayoutDecoder::new(layout, cfg.rate_hz),
-            info: tactile_info(&device, rate_hz, &cfg.sensors, &cfg.fingers),
+            info: tactile_info(&device, rate_hz, &cfg.sensors, cfg.fingers.as_ref()),
             clock,
             timeout: Duration::from_millis(cfg.timeout_ms),
             startup_timeout: Duration::from_millis(cfg.startup_timeout_ms.max(cfg.timeout_ms)),

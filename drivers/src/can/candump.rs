@@ -10,53 +10,11 @@
 //! error flag `0x20000000` in an 8-digit id (the format of can-utils'
 //! `lib.c`, `sprint_canframe`).
 
-use thiserror::Error;
-
-/// One record of a candump log.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct CandumpRecord {
-    /// Reception time in microseconds: since the Unix epoch (host clock)
-    /// for `candump -l` and `-t a`; since the first frame (`-t z`) or the
-    /// previous one (`-t d`) for those; `None` when the line has none.
-    pub t_us: Option<u64>,
-    /// The interface it was received on (`can0`).
-    pub interface: String,
-    /// What the frame is.
-    pub frame: CandumpFrame,
-}
-
-/// The frame of a [`CandumpRecord`].
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum CandumpFrame {
-    /// A classic data frame.
-    Data {
-        /// The identifier (11 or 29 bits).
-        id: u32,
-        /// True for a 29-bit identifier.
-        extended: bool,
-        /// 0 to 8 bytes.
-        data: Vec<u8>,
-    },
-    /// A remote (RTR) frame, an error frame or a CAN FD frame: logged, not decoded here.
-    Other,
-}
-
-/// A line that is not a candump record.
-#[derive(Clone, Debug, Error, PartialEq, Eq)]
-#[error("not a candump record: {reason}")]
-pub struct CandumpParseError {
-    /// What is wrong with the line.
-    pub reason: &'static str,
-}
-
-/// Error flag of a can-utils frame id (`CAN_ERR_FLAG`).
-pub(crate) const ERROR_FLAG: u32 = 0x2000_0000;
-
 pub mod plain;
+mod record;
 
-pub(crate) fn bad(reason: &'static str) -> CandumpParseError {
-    CandumpParseError { reason }
-}
+pub use record::{CandumpFrame, CandumpParseError, CandumpRecord};
+use record::{ERROR_FLAG, bad, parse_seconds};
 
 /// Parses one line (without its newline) of a `candump -l` log.
 pub fn parse_line(line: &str) -> Result<CandumpRecord, CandumpParseError> {
@@ -73,17 +31,6 @@ pub fn parse_line(line: &str) -> Result<CandumpRecord, CandumpParseError> {
 /// line of candump's console output.
 pub fn parse_any_line(line: &str) -> Result<CandumpRecord, CandumpParseError> {
     if line.contains('#') { parse_line(line) } else { plain::parse_plain_line(line) }
-}
-
-/// Parses `(SECONDS.MICROS)` without its parentheses into microseconds.
-pub(crate) fn parse_seconds(time: &str) -> Result<u64, CandumpParseError> {
-    let (secs, micros) = time.split_once('.').ok_or_else(|| bad("time without a fraction"))?;
-    let secs: u64 = secs.parse().map_err(|_| bad("bad seconds"))?;
-    if micros.len() != 6 {
-        return Err(bad("time fraction is not 6 digits"));
-    }
-    let micros: u64 = micros.parse().map_err(|_| bad("bad microseconds"))?;
-    secs.checked_mul(1_000_000).and_then(|s| s.checked_add(micros)).ok_or_else(|| bad("time"))
 }
 
 fn parse_frame(text: &str) -> Result<CandumpFrame, CandumpParseError> {
@@ -139,6 +86,12 @@ mod tests {
             parse_line("(1.000000) can0 20000080#0000000000000000").unwrap().frame,
             CandumpFrame::Other
         );
+    }
+
+    #[test]
+    fn both_formats_parse_through_one_entry_point() {
+        assert_eq!(parse_any_line("(1.000000) can0 201#0700").unwrap().t_us, Some(1_000_000));
+        assert_eq!(parse_any_line("  can0  201   [2]  07 00").unwrap().t_us, None);
     }
 
     #[test]

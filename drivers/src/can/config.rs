@@ -31,7 +31,7 @@ use crate::can::protocol::{START_COMMAND, XelaCanLayout};
 use crate::can_hand::protocol::HandCanIds;
 use crate::config::error::{HwConfigError, IdCollision, check};
 use crate::sensors::validate_sensors;
-use crate::sensors::{HwSensor, default_fingers, default_sensors};
+use crate::sensors::{HwSensor, default_sensors};
 use crate::slcan::config::SlcanTransport;
 
 /// A uSkin-style board (or several) on CAN.
@@ -83,8 +83,11 @@ pub struct CanTactileConfig {
     pub startup_timeout_ms: u64,
     /// The sensors: which modules are read, their layout and finger.
     pub sensors: Vec<HwSensor>,
-    /// What each finger's reading is (a taxel of a sensor, or its mean).
-    pub fingers: PerFinger<FingerReading>,
+    /// What each finger's reading is (a taxel of a sensor, or its mean);
+    /// without it, taxel 0 of the sensor whose `finger` names the finger
+    /// ([`crate::sensors::finger_readings`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fingers: Option<PerFinger<FingerReading>>,
 }
 
 impl Default for CanTactileConfig {
@@ -108,7 +111,7 @@ impl Default for CanTactileConfig {
             timeout_ms: 50,
             startup_timeout_ms: 2000,
             sensors: default_sensors(4, 4),
-            fingers: default_fingers(),
+            fingers: None,
         }
     }
 }
@@ -203,7 +206,7 @@ impl CanTactileConfig {
         check("tactile.taxels_per_module", per, c.taxels_per_module > 0, ">= 1")?;
         // With an explicit map, modules and taxels_per_module are not used.
         let per_module = if c.map.is_empty() { usize::from(c.taxels_per_module) } else { usize::MAX };
-        validate_sensors(&c.sensors, &c.fingers, per_module)?;
+        validate_sensors(&c.sensors, c.fingers.as_ref(), per_module)?;
         let per = usize::from(c.taxels_per_module);
         for x in c.sensors.iter().filter(|_| c.map.is_empty()) {
             let end = x.module as usize * per + x.taxels();

@@ -17,148 +17,22 @@
 use std::collections::HashMap;
 
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
 
 use crate::can::protocol::{CanFrame, MAX_STANDARD_ID};
 use crate::sensors::HwSensor;
 
 pub mod decoder;
+mod error;
+mod payload;
+mod resolved;
 
 pub use decoder::{CanLayoutDecoder, LayoutScan};
+pub use error::CanMapError;
+pub use payload::{ByteOrder, Payload, PayloadFormat, ValidityByte};
+pub use resolved::{IdKey, ResolvedLayout, ScanMode};
 
 /// Largest extended (29-bit) CAN identifier.
 pub const MAX_EXTENDED_ID: u32 = 0x1FFF_FFFF;
-
-/// Byte order of the 16-bit values in a taxel frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ByteOrder {
-    /// Most significant byte first (the legacy layout's drivers read this).
-    #[default]
-    Big,
-    /// Least significant byte first.
-    Little,
-}
-
-/// A validity check on one payload byte: the sample is invalid when the
-/// byte is `below` or more. Off unless configured: no public source
-/// documents such a byte for XELA boards.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ValidityByte {
-    /// Offset of the byte in the payload (0-7).
-    pub byte: u8,
-    /// Values at or above this mark the sample invalid.
-    pub below: u8,
-}
-
-/// How one taxel frame's payload holds the taxel's x, y and z (unsigned
-/// 16-bit raw counts).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct PayloadFormat {
-    /// Byte order of x, y and z.
-    pub byte_order: ByteOrder,
-    /// Offset of x's first byte in the payload (0-6).
-    pub x: u8,
-    /// Offset of y's first byte.
-    pub y: u8,
-    /// Offset of z's first byte.
-    pub z: u8,
-    /// A status byte that marks invalid samples; none by default.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub valid: Option<ValidityByte>,
-}
-
-impl Default for PayloadFormat {
-    /// The legacy layout's drivers: x, y, z big-endian at bytes 1, 3, 5.
-    fn default() -> Self {
-        PayloadFormat { byte_order: ByteOrder::Big, x: 1, y: 3, z: 5, valid: None }
-    }
-}
-
-/// What a payload decoded to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Payload {
-    /// `[x, y, z]` raw counts.
-    Valid(slidetrack_core::RawTaxel),
-    /// The validity byte marked it invalid.
-    Invalid,
-    /// Shorter than the format needs.
-    TooShort,
-}
-
-impl PayloadFormat {
-    /// Bytes a payload needs.
-    pub fn len(&self) -> usize {
-        let values = [self.x, self.y, self.z].iter().map(|&o| usize::from(o) + 2).max().unwrap_or(0);
-        values.max(self.valid.map_or(0, |v| usize::from(v.byte) + 1))
-    }
-
-    /// Always false: a format holds three values.
-    pub fn is_empty(&self) -> bool {
-        false
-    }
-
-    /// Checks that the values fit 8 bytes and overlap neither each other
-    /// nor the validity byte.
-    pub fn validate(&self) -> Result<(), CanMapError> {
-        let mut used = [None::<&'static str>; 8];
-        let fields = [("x", self.x, 2), ("y", self.y, 2), ("z", self.z, 2)];
-        let valid = self.valid.map(|v| ("valid.byte", v.byte, 1));
-        for (name, offset, width) in fields.into_iter().chain(valid) {
-            for k in usize::from(offset)..usize::from(offset) + width {
-                let Some(slot) = used.get_mut(k) else {
-                    return Err(CanMapError::Payload(format!(
-                        "hw.tactile.payload.{name} = {offset} ends beyond the 8 bytes of a CAN frame"
-                    )));
-                };
-                if let Some(other) = slot {
-                    return Err(CanMapError::Payload(format!(
-                        "hw.tactile.payload.{name} and .{other} share byte {k}"
-                    )));
-                }
-                *slot = Some(name);
-            }
-        }
-        Ok(())
-    }
-
-    /// Decodes one taxel frame's payload.
-    pub fn decode(&self, data: &[u8]) -> Payload {
-        if data.len() < self.len() {
-            return Payload::TooShort;
-        }
-        if let Some(v) = self.valid
-            && data[usize::from(v.byte)] >= v.below
-        {
-            return Payload::Invalid;
-        }
-        let read = |o: u8| {
-            let b = [data[usize::from(o)], data[usize::from(o) + 1]];
-            match self.byte_order {
-                ByteOrder::Big => u16::from_be_bytes(b),
-                ByteOrder::Little => u16::from_le_bytes(b),
-            }
-        };
-        Payload::Valid([read(self.x), read(self.y), read(self.z)])
-    }
-
-    /// The payload of a valid sample (for emulators and tests): the values
-    /// at their offsets, every other byte 0 (a validity byte, too).
-    pub fn encode(&self, value: slidetrack_core::RawTaxel) -> Vec<u8> {
-        let mut data = vec![0; self.len()];
-        for (offset, v) in [self.x, self.y, self.z].into_iter().zip(value) {
-            let bytes = match self.byte_order {
-                ByteOrder::Big => v.to_be_bytes(),
-                ByteOrder::Little => v.to_le_bytes(),
-            };
-            let o = usize::from(offset);
-            data[o..o + 2].copy_from_slice(&bytes);
-        }
-        data
-    }
-}
 
 /// A command frame the host sends (`{ id = 0x201, data = [7, 0] }`).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -183,22 +57,6 @@ impl CommandFrame {
             len: self.data.len(),
         })
     }
-}
-
-/// How taxel frames become scans.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ScanMode {
-    /// A scan is emitted when every mapped taxel has arrived; a scan that
-    /// is still incomplete when the next one begins (the first mapped
-    /// taxel's frame, a taxel seen twice, or the scan-start frame) is
-    /// counted as incomplete and dropped.
-    #[default]
-    #[serde(alias = "start_frame")]
-    Complete,
-    /// The latest value of every taxel, emitted at `rate_hz` once every
-    /// taxel has been seen (for boards that stream taxels independently).
-    Latest,
 }
 
 /// One entry of an explicit id map (`[[hw.tactile.map]]`). Exactly one of
@@ -250,123 +108,11 @@ pub struct MapEntry {
     pub col_stride: Option<u32>,
 }
 
-/// A layout that cannot describe the configured sensors.
-#[derive(Clone, Debug, Error, PartialEq, Eq)]
-pub enum CanMapError {
-    /// An entry that is none or several of the three forms, or names an
-    /// unknown sensor, or reaches beyond its sensor.
-    #[error("hw.tactile.map[{index}]: {why}")]
-    Entry {
-        /// Index of the entry in the file.
-        index: usize,
-        /// What is wrong.
-        why: String,
-    },
-    /// Two taxels on one id.
-    #[error("CAN id 0x{id:X} is given twice: by {first} and by {second}")]
-    SharedId {
-        /// The id.
-        id: u32,
-        /// The first setting.
-        first: String,
-        /// The second setting.
-        second: String,
-    },
-    /// A taxel of a configured sensor that no id carries.
-    #[error("hw.tactile.map maps no CAN id to taxel {taxel} of sensor `{sensor}` (every taxel needs one)")]
-    Unmapped {
-        /// The sensor.
-        sensor: String,
-        /// The taxel.
-        taxel: u32,
-    },
-    /// A taxel mapped twice.
-    #[error("taxel {taxel} of sensor `{sensor}` is mapped twice (ids 0x{first:X} and 0x{second:X})")]
-    TaxelTwice {
-        /// The sensor.
-        sensor: String,
-        /// The taxel.
-        taxel: u32,
-        /// The first id.
-        first: u32,
-        /// The second id.
-        second: u32,
-    },
-    /// An id beyond 11 (or 29) bits.
-    #[error("{key} = 0x{id:X} is beyond the {bits}-bit CAN id range")]
-    IdRange {
-        /// The setting.
-        key: String,
-        /// The id.
-        id: u32,
-        /// 11 or 29.
-        bits: u8,
-    },
-    /// A bad payload format.
-    #[error("{0}")]
-    Payload(String),
-    /// A command frame that does not fit CAN.
-    #[error(
-        "{key}: id 0x{id:X} with {len} data bytes is not a CAN frame (at most 8 bytes; 11-bit id unless `extended = true`)"
-    )]
-    Command {
-        /// The setting.
-        key: String,
-        /// The id.
-        id: u32,
-        /// Data bytes given.
-        len: usize,
-    },
-}
-
-/// A CAN id: `(id, extended)`.
-pub type IdKey = (u32, bool);
-
 /// One taxel's id: `(sensor index, taxel, id, the setting that gives it)`.
 pub type Assignment = (usize, u32, IdKey, String);
 
 /// Per slot its id and setting, and the slot of each id.
 type SlotTable = (Vec<(IdKey, String)>, HashMap<IdKey, usize>);
-
-/// A layout resolved against the configured sensors: one slot per taxel
-/// of every sensor, in scan order (sensor by sensor, row-major), and the
-/// id of each.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ResolvedLayout {
-    /// Per slot: its id and the setting it came from (for messages).
-    pub slots: Vec<(IdKey, String)>,
-    /// Slot of each id.
-    pub by_id: HashMap<IdKey, usize>,
-    /// How payloads hold the values.
-    pub payload: PayloadFormat,
-    /// Frames sent after opening the bus.
-    pub start: Vec<(CanFrame, String)>,
-    /// Frames sent when the source is dropped.
-    pub stop: Vec<(CanFrame, String)>,
-    /// An id that marks the start of a scan (legacy: none; frames of the
-    /// first slot do).
-    pub scan_start_id: Option<IdKey>,
-    /// How frames become scans.
-    pub mode: ScanMode,
-}
-
-impl ResolvedLayout {
-    /// The frames of a scan of valid `values` (one per slot, in slot
-    /// order), for emulators and tests.
-    pub fn encode_scan(&self, values: &[slidetrack_core::RawTaxel]) -> Vec<CanFrame> {
-        self.slots
-            .iter()
-            .zip(values)
-            .filter_map(|(((id, ext), _), v)| CanFrame::new(*id, *ext, &self.payload.encode(*v)))
-            .collect()
-    }
-
-    /// Every id the tactile source uses, with the setting that gives it.
-    pub fn used_ids(&self) -> impl Iterator<Item = (IdKey, &str)> {
-        let frames = self.start.iter().chain(&self.stop).map(|(f, k)| ((f.id, f.extended), k.as_str()));
-        self.slots.iter().map(|(id, k)| (*id, k.as_str())).chain(frames)
-    }
-}
 
 fn check_id(key: &str, id: u32, extended: bool) -> Result<(), CanMapError> {
     let (max, bits) = if extended { (MAX_EXTENDED_ID, 29) } else { (MAX_STANDARD_ID, 11) };

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use slidetrack_core::{FingerReading, PerFinger};
 
 use crate::config::error::{HwConfigError, check};
-use crate::sensors::{HwSensor, default_fingers, default_sensors, validate_sensors};
+use crate::sensors::{HwSensor, default_sensors, validate_sensors};
 use crate::serial::protocol::MAX_TAXELS;
 
 /// uSkin-style modules on a serial port.
@@ -29,8 +29,11 @@ pub struct SerialTactileConfig {
     pub startup_timeout_ms: u64,
     /// The sensors: which modules are read, their layout and finger.
     pub sensors: Vec<HwSensor>,
-    /// What each finger's reading is (a taxel of a sensor, or its mean).
-    pub fingers: PerFinger<FingerReading>,
+    /// What each finger's reading is (a taxel of a sensor, or its mean);
+    /// without it, taxel 0 of the sensor whose `finger` names the finger
+    /// ([`crate::sensors::finger_readings`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fingers: Option<PerFinger<FingerReading>>,
     /// Faults the emulator injects (only with `port = "emulated"`).
     pub emulator: EmulatorConfig,
 }
@@ -45,7 +48,7 @@ impl Default for SerialTactileConfig {
             timeout_ms: 50,
             startup_timeout_ms: 2000,
             sensors: default_sensors(4, 4),
-            fingers: default_fingers(),
+            fingers: None,
             emulator: EmulatorConfig::default(),
         }
     }
@@ -73,7 +76,7 @@ impl SerialTactileConfig {
         let ok = (1..=MAX_TAXELS).contains(&usize::from(s.taxels_per_module));
         check("tactile.taxels_per_module", n, ok, "1..=64")?;
         check("tactile.timeout_ms", s.timeout_ms as f64, s.timeout_ms > 0, "> 0 ms")?;
-        validate_sensors(&s.sensors, &s.fingers, usize::from(s.taxels_per_module))?;
+        validate_sensors(&s.sensors, s.fingers.as_ref(), usize::from(s.taxels_per_module))?;
         if let Some(big) = s.sensors.iter().find(|x| x.module > 255) {
             check("tactile.sensors.module", f64::from(big.module), false, "0..=255")?;
         }

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use slidetrack_core::{Finger, FingerReading, PerFinger, TactileInfo};
 
 use super::protocol::{Expected, ExpectedSensor, WireStyle};
-use crate::sensors::{HwSensor, SensorConfigError, default_fingers, tactile_info, validate_sensors};
+use crate::sensors::{HwSensor, SensorConfigError, tactile_info, validate_sensors};
 
 /// The URL that selects the local emulator fed by the simulated rig.
 pub const EMULATED_URL: &str = "emulated";
@@ -45,8 +45,11 @@ pub struct XelaWsTactileConfig {
     pub reconnect: XelaReconnectConfig,
     /// The sensors: which server sensor each is, its model, grid and finger.
     pub sensors: Vec<XelaSensor>,
-    /// What each finger's reading is (a taxel of a sensor, or its mean).
-    pub fingers: PerFinger<FingerReading>,
+    /// What each finger's reading is (a taxel of a sensor, or its mean);
+    /// without it, taxel 0 of the sensor whose `finger` names the finger
+    /// ([`crate::sensors::finger_readings`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fingers: Option<PerFinger<FingerReading>>,
     /// What the emulator sends and the faults it injects (only with `url = "emulated"`).
     pub emulator: XelaEmulatorConfig,
 }
@@ -61,7 +64,7 @@ impl Default for XelaWsTactileConfig {
             connect_timeout_ms: 1000,
             reconnect: XelaReconnectConfig::default(),
             sensors: default_xela_sensors(),
-            fingers: default_fingers(),
+            fingers: None,
             emulator: XelaEmulatorConfig::default(),
         }
     }
@@ -207,7 +210,7 @@ impl XelaWsTactileConfig {
 
     /// What the source is: its layout and finger readings.
     pub fn info(&self, device: &str, rate_hz: f64) -> TactileInfo {
-        tactile_info(device, rate_hz, &self.hw_sensors(), &self.fingers)
+        tactile_info(device, rate_hz, &self.hw_sensors(), self.fingers.as_ref())
     }
 
     /// The sensors the server must send, for the decoder's check.
@@ -246,7 +249,7 @@ impl XelaWsTactileConfig {
                 positive(field, v.is_finite() && v >= 0.0, v)?;
             }
         }
-        validate_sensors(&self.hw_sensors(), &self.fingers, usize::MAX)?;
+        validate_sensors(&self.hw_sensors(), self.fingers.as_ref(), usize::MAX)?;
         Ok(())
     }
 }

@@ -4,7 +4,7 @@
 //! hand. The tuner's likelihood runs it thousands of times per tuning; the
 //! module's tests check it against the matrix form.
 
-use super::CvParams;
+use super::params::CvParams;
 
 /// A belief of the model as plain numbers.
 #[derive(Clone, Copy, Debug, PartialEq)]

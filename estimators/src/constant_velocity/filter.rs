@@ -4,7 +4,7 @@
 use crate::kf::Gaussian;
 use crate::rts::{GatedKalmanFilter, Transition};
 
-use super::CvParams;
+use super::params::CvParams;
 
 /// The constant-velocity model run causally: predicted to each sample time
 /// and corrected with the position when there is one, finite and inside

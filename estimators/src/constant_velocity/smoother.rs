@@ -5,7 +5,7 @@ use crate::EstimatorError;
 use crate::kf::Gaussian;
 use crate::rts::{ForwardFilter, MeasurementUse, Transition, smooth};
 
-use super::CvParams;
+use super::params::CvParams;
 
 impl CvParams {
     /// Runs the forward filter and the RTS smoother over `samples` (times

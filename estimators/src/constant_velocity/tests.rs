@@ -7,7 +7,7 @@ use super::expanded::ExpandedBelief;
 use super::*;
 use crate::EstimatorError;
 use crate::kf::{CovarianceUpdate, predict, update};
-use crate::rts::MeasurementUse;
+use crate::rts::{Gate, MeasurementUse};
 
 /// The labelling's default parameters (`slidetrack_calibration`'s
 /// `default_params`): 0.5 mm marker noise, a gate at 5 sigma.

@@ -20,7 +20,8 @@
 //! smooth objective do not warrant an optimisation crate.
 
 use super::expanded::ExpandedBelief;
-use super::{CvParams, CvSample};
+use super::params::CvParams;
+use super::smoother::CvSample;
 
 /// The tuned parameters and how they were found.
 #[derive(Clone, Debug, PartialEq)]

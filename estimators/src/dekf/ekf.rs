@@ -21,6 +21,10 @@
 /// A 2x2 matrix, row-major.
 pub type M2 = [[f64; 2]; 2];
 
+/// Smallest innovation variance `S` for which the filter corrects; below it
+/// the measurement carries no usable information and the step only predicts.
+pub const MIN_INNOVATION_VAR: f64 = 1e-12;
+
 fn mul(a: &M2, b: &M2) -> M2 {
     let mut c = [[0.0; 2]; 2];
     for i in 0..2 {

@@ -2,16 +2,12 @@
 //! on every tactile scan, the dEKF on every `decimation`-th.
 #![expect(non_snake_case, reason = "matrices are named as in the thesis's equations (F, H, Q, R, P, K)")]
 
-use super::ekf::{M2, correct, predict};
+use super::ekf::{M2, MIN_INNOVATION_VAR, correct, predict};
 use super::infer::FastNet;
 use super::input::DekfInput;
 use super::model::DekfModel;
 use super::multi::MultiFilter;
 use super::state::StateKind;
-
-/// Smallest innovation variance `S` for which the filter corrects; below it
-/// the measurement carries no usable information and the step only predicts.
-pub const MIN_INNOVATION_VAR: f64 = 1e-12;
 
 /// One estimate of the dEKF.
 #[derive(Clone, Debug, PartialEq)]

@@ -2,6 +2,7 @@
 //! position and velocity of an object sliding in the hand from the
 //! derivative of the tactile signal.
 
+mod batch;
 mod bptt;
 pub mod ekf;
 pub mod file;
@@ -15,8 +16,10 @@ pub mod params;
 mod state;
 mod train;
 
-pub use bptt::{BatchGrad, Sequence, Window, batch_grad};
-pub use filter::{DekfOutput, DekfTracker, MIN_INNOVATION_VAR};
+pub use batch::{BatchGrad, Sequence, Window};
+pub use bptt::batch_grad;
+pub use ekf::MIN_INNOVATION_VAR;
+pub use filter::{DekfOutput, DekfTracker};
 pub use input::{DekfInput, InputStep};
 pub use model::{DekfModel, Measurement, ModelMeta};
 pub use params::{Activation, Architecture};

@@ -7,7 +7,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use super::bptt::{BatchGrad, Sequence, Window, batch_grad};
+use super::batch::{BatchGrad, Sequence, Window};
+use super::bptt::batch_grad;
 use super::model::DekfModel;
 
 /// One stage of the schedule: subsequences of `length` steps for `epochs` epochs.

@@ -6,7 +6,8 @@ use std::collections::HashMap;
 use nalgebra::DMatrix;
 use safetensors::tensor::{Dtype, SafeTensors, TensorView};
 
-use super::{LinearMap, LinearMapError};
+use super::error::LinearMapError;
+use super::map::LinearMap;
 
 /// Metadata key holding the format version.
 pub const FORMAT_KEY: &str = "format";

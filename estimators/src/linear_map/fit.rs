@@ -4,7 +4,25 @@
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use serde::Serialize;
 
-use super::{FitOptions, LinearMap, LinearMapError};
+use super::error::LinearMapError;
+use super::map::LinearMap;
+
+/// Options of [`LinearMap::fit`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitOptions {
+    /// Candidate penalties, each finite and positive (order and repeats do
+    /// not matter). Default: 33 values log-spaced from 1e-3 to 1e5, four per
+    /// decade.
+    pub lambdas: Vec<f64>,
+    /// Number of cross-validation folds, at least 2. Default 5.
+    pub folds: usize,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions { lambdas: (-12..=20).map(|k| 10f64.powf(f64::from(k) / 4.0)).collect(), folds: 5 }
+    }
+}
 
 /// How the rows were split for cross-validation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]

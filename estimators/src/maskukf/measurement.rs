@@ -8,7 +8,7 @@
 
 use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Vector3};
 
-use super::ObjectPoints;
+use super::model::ObjectPoints;
 use super::state::camera_from_object;
 use crate::orientation::Composite;
 

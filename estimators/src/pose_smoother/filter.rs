@@ -7,7 +7,7 @@
 use nalgebra::{Matrix2, Matrix3, Matrix6, RowVector2, RowVector3, SMatrix, UnitQuaternion, Vector3};
 
 use super::so3::left_jacobian;
-use super::{PoseMeasurement, PoseSample, PoseSmootherParams, SmoothedPose};
+use super::types::{PoseMeasurement, PoseSample, PoseSmootherParams, SmoothedPose};
 use crate::EstimatorError;
 use crate::orientation::quaternion::{exp, ominus};
 use crate::rts::{Gate, GateState, MeasurementUse};
@@ -151,7 +151,7 @@ pub(super) struct Run {
     /// starts; `None` when there is none (and no step was visited).
     pub(super) first_measured: Option<usize>,
     /// The gated log-likelihood of the measurements (see
-    /// [`super::log_likelihood`]).
+    /// [`log_likelihood`]).
     pub(super) log_likelihood: f64,
 }
 
@@ -329,4 +329,21 @@ fn update(params: &PoseSmootherParams, prior: &Belief, innov: &PoseInnovation) -
 /// `(A + A^T) / 2`: removes the asymmetry rounding leaves.
 pub(super) fn symmetric<const N: usize>(a: SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
     (a + a.transpose()) * 0.5
+}
+
+/// `log p(z_1:T)` of the marker poses of `samples` under `params`, the
+/// gated robust form of [`crate::constant_velocity::tune`]: each pose adds the Gaussian
+/// log-density of its 6-D innovation, a pose beyond the gate adds the term
+/// at the gate's edge `-1/2 (log det(2 pi S) + d2_max)` and is not used. As
+/// there, the gate's re-acquisition is left out (the likelihood is that of a
+/// gate that never opens). The first pose's innovation is zero (it centres
+/// the prior) and adds `-1/2 log det(2 pi (P0 + R))`. `-inf` when the filter
+/// fails (a time that does not increase, a non-finite measurement, a
+/// covariance that stops being positive); 0 without measurements.
+pub fn log_likelihood(params: &PoseSmootherParams, samples: &[PoseSample]) -> f64 {
+    let gate = params.gate.map(|g| Gate { reacquire_after: None, ..g });
+    match forward(params, gate, samples, |_| ()) {
+        Ok(run) if !run.log_likelihood.is_nan() => run.log_likelihood,
+        _ => f64::NEG_INFINITY,
+    }
 }

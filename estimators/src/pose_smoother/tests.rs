@@ -14,6 +14,7 @@ use rand_distr::{Distribution, Normal};
 use super::*;
 use crate::constant_velocity::{CvParams, CvSample};
 use crate::orientation::quaternion::exp;
+use crate::rts::Gate;
 
 /// A true pose: position (m) and `frame_from_object`.
 type Truth = (Vector3<f64>, UnitQuaternion<f64>);

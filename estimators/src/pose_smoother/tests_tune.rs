@@ -8,6 +8,7 @@ use rand_distr::{Distribution, Normal};
 
 use super::*;
 use crate::orientation::quaternion::exp;
+use crate::rts::Gate;
 
 /// The six densities `(q_p, q_v, r_p, q_theta, q_omega, r_theta)` of
 /// `params`.

@@ -24,7 +24,8 @@
 
 use rayon::prelude::*;
 
-use super::{PoseSample, PoseSmootherParams, log_likelihood};
+use super::filter::log_likelihood;
+use super::types::{PoseSample, PoseSmootherParams};
 use crate::constant_velocity::tune::nelder_mead_restarted;
 
 /// The interval every tuned density stays in, in the SI unit of each (m^2/s,

@@ -12,7 +12,7 @@ use super::image::{Mask, SharedFlow};
 
 /// `M ⊞ F` (5.1): every pixel moved by its flow and rounded to the nearest
 /// pixel; pixels whose flow is unknown, or that leave the image, are dropped.
-pub fn propagate(mask: &Mask, flow: &super::FlowField) -> Mask {
+pub fn propagate(mask: &Mask, flow: &super::image::FlowField) -> Mask {
     let mut out = Mask::empty(mask.width(), mask.height());
     for (u, v) in mask.pixels() {
         if let Some([du, dv]) = flow.at(u, v) {

@@ -8,11 +8,12 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector, Isometry3, Vector6};
 
+use super::config::{DepthRenderer, RoftConfig};
+use super::error::RoftError;
 use super::image::{DepthMap, Mask, Pinhole, SharedFlow};
 use super::mask::{DelayedMaskUse, MaskSync};
 use super::pose::{self, MeasuredParts};
 use super::velocity::VelocityTracker;
-use super::{DepthRenderer, RoftConfig, RoftError};
 use crate::EstimatorError;
 use crate::orientation::{Composite, PoseVelocity};
 use crate::ukf::{Belief, correct, predict};

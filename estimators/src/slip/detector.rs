@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::GraspError;
+use super::error::GraspError;
 
 /// The contact level of the xela-imanlab recordings (counts): the hold
 /// begins when the normal load first reaches it.

@@ -6,8 +6,8 @@ use std::ops::AddAssign;
 
 use serde::Serialize;
 
-use super::GraspError;
 use super::detector::{GraspDetectorConfig, GraspState};
+use super::error::GraspError;
 
 /// The reference release is where the load falls below this fraction of its
 /// level just before, for good.

@@ -4,7 +4,6 @@
 //! ([`RobotTransformStateMessage`]) has it as a 4x4 matrix, with the
 //! commanded Cartesian velocity and the controller's clock.
 
-use nalgebra::{Matrix3, Rotation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 use slidetrack_session::Quaternion;
@@ -123,17 +122,4 @@ pub fn robot_transform_schema() -> Value {
             "time_s": number("time: the controller's clock (s), as written"),
         }),
     )
-}
-
-/// The unit quaternion (x, y, z, w) of the rotation nearest `m`, with w >= 0.
-pub(crate) fn nearest_rotation_xyzw(m: &Matrix3<f64>) -> [f64; 4] {
-    // Shepperd's method on the block as is (not quite a unit quaternion, as
-    // the block is not quite a rotation), normalised, refined to the nearest
-    // rotation.
-    let shepperd = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*m));
-    let guess = UnitQuaternion::new_normalize(shepperd.into_inner());
-    let q = UnitQuaternion::new_normalize(UnitQuaternion::from_matrix_eps(m, 1e-12, 100, guess).into_inner());
-    let c = q.coords;
-    let sign = if c.w < 0.0 { -1.0 } else { 1.0 };
-    [sign * c.x, sign * c.y, sign * c.z, sign * c.w]
 }

@@ -28,10 +28,9 @@ mod tests;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use nalgebra::{Matrix3, Matrix4};
+use nalgebra::{Matrix3, Matrix4, Rotation3, UnitQuaternion};
 
 use super::csv_parse::{At, numbers, parse_f64, parse_flag, parse_wall_time_s, read_rows, read_table};
-use super::robot_state::nearest_rotation_xyzw;
 pub use super::xela_csv::find_sequences;
 pub use super::xela_csv::{MARKER_FILE, MARKER_NOT_SEEN, META_FILE, ROBOT_FILE, TACTILE_FILES};
 use super::xela_csv::{MarkerPose, PatchCounts, SENSORS, read_tactile};
@@ -186,6 +185,19 @@ impl PscRobotState {
         let m = self.ee_transform();
         nearest_rotation_xyzw(&Matrix3::from(m.fixed_view::<3, 3>(0, 0)))
     }
+}
+
+/// The unit quaternion (x, y, z, w) of the rotation nearest `m`, with w >= 0.
+pub(crate) fn nearest_rotation_xyzw(m: &Matrix3<f64>) -> [f64; 4] {
+    // Shepperd's method on the block as is (not quite a unit quaternion, as
+    // the block is not quite a rotation), normalised, refined to the nearest
+    // rotation.
+    let shepperd = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*m));
+    let guess = UnitQuaternion::new_normalize(shepperd.into_inner());
+    let q = UnitQuaternion::new_normalize(UnitQuaternion::from_matrix_eps(m, 1e-12, 100, guess).into_inner());
+    let c = q.coords;
+    let sign = if c.w < 0.0 { -1.0 } else { 1.0 };
+    [sign * c.x, sign * c.y, sign * c.z, sign * c.w]
 }
 
 /// `slip_label.csv`, one row, the values as written (0.0 or 1.0 in the

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use nalgebra::Isometry3;
-use slidetrack_calibration::{encode_jpeg, marker_pattern};
+use slidetrack_calibration::encode_jpeg;
 use slidetrack_control::Rig;
 use slidetrack_core::{
     Camera, CameraIntrinsics, Clock, HandActuator, HandMonitor, TactileSource, TruthSource, WallClock,
@@ -22,11 +22,9 @@ use slidetrack_drivers::robotiq::backend::{
     EmulatedRobotiqGripper, EmulatedRobotiqMonitor, RobotiqGripper, RobotiqMonitor,
 };
 use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{
-    HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, SimHandMonitor, Stream, stream_seed,
-};
+use slidetrack_sim::{HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, SimHandMonitor};
 
-use super::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
+use super::trial::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
 use crate::v4l2_intrinsics::v4l2_intrinsics;
 use crate::vision::camera as rgbd_camera;
@@ -238,18 +236,15 @@ fn prepare_camera(spec: &TrialSpec, camera: &CameraDevice) -> Result<(Option<Pre
     Ok(match (camera, spec.camera) {
         (CameraDevice::None, _) | (_, false) => (None, None),
         (CameraDevice::Sim, true) => {
-            let renderer = sim_renderer(spec)?;
+            let renderer = super::trial::sim_camera_renderer(spec)?;
             let markers = marker_tracking(spec, *renderer.hand_from_camera(), renderer.intrinsics())?;
-            (Some(PreparedCamera::Sim(Box::new(renderer))), Some(Box::new(markers) as Box<dyn MarkerSource>))
+            (Some(PreparedCamera::Sim(Box::new(renderer))), Some(markers))
         }
         (CameraDevice::V4l2(v), true) => {
             let intrinsics = v4l2_intrinsics(v)?;
             let hand_from_camera = v.placement.hand_from_camera().context("hw.camera.placement")?;
             let markers = marker_tracking(spec, hand_from_camera, &intrinsics)?;
-            (
-                Some(PreparedCamera::V4l2(v.clone(), intrinsics)),
-                Some(Box::new(markers) as Box<dyn MarkerSource>),
-            )
+            (Some(PreparedCamera::V4l2(v.clone(), intrinsics)), Some(markers))
         }
         (CameraDevice::Rgbd(r), true) => {
             let hand_from_camera = r.placement.hand_from_camera().context("hw.camera.placement")?;
@@ -273,7 +268,7 @@ fn open_shared(
     let live = rgbd_camera::open(cfg, Path::new("."), Arc::clone(clock)).context("the [rgbd] camera")?;
     let every_frame = matches!(cfg, RgbdCameraConfig::Recording(r) if r.pace == ReplayPace::EveryFrame);
     let (camera, color, frames) = SharedRgbd::new(live, every_frame);
-    let markers = Box::new(marker_tracking(spec, hand_from_camera, camera.intrinsics())?);
+    let markers = marker_tracking(spec, hand_from_camera, camera.intrinsics())?;
     Ok((Box::new(color), Shared { camera, frames, markers }))
 }
 
@@ -303,15 +298,6 @@ fn open_camera(
         }
         (Some(PreparedCamera::Rgbd(_)), _) => bail!("internal: the [rgbd] camera is opened shared"),
     })
-}
-
-/// The simulated camera's renderer (the marker comes from OpenCV's dictionaries).
-fn sim_renderer(spec: &TrialSpec) -> Result<SimCameraRenderer> {
-    let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
-        .context("cannot make the marker for the simulated camera")?;
-    let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
-    SimCameraRenderer::new(spec.rig.camera.clone(), spec.object.appearance.clone(), marker, seed)
-        .context("cannot set up the simulated camera")
 }
 
 #[cfg(test)]

@@ -4,115 +4,27 @@
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod hw;
+mod trial;
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 use std::sync::Arc;
 
-use anyhow::{Context, Result, bail};
-use slidetrack_calibration::{Dictionary, MarkerTracker, SlidingAxis, encode_jpeg, marker_pattern};
+use anyhow::{Result, bail};
+use slidetrack_calibration::encode_jpeg;
 use slidetrack_control::{GraspProfile, Protocol, ProtocolConfig, Rig};
 use slidetrack_core::{
-    ActuatorCommand, ActuatorSpec, Camera, CameraIntrinsics, Clock, DeviceError, ErrorKind, FingerMap,
-    HandActuator, HandMonitor, SimClock, TactileInfo, TactileSource, WallClock,
+    ActuatorSpec, Camera, Clock, FingerMap, HandMonitor, SimClock, TactileSource, WallClock,
 };
-use slidetrack_session::LiveTap;
-use slidetrack_sim::camera::SimCameraRenderer;
-use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices, Stream, stream_seed};
+use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices};
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use crate::v4l2_intrinsics::v4l2_intrinsics;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use hw::describe;
 
-use crate::marker::{LiveMarkers, MarkerSource};
 use crate::rig_config::RigConfig;
-use crate::vision::shared_camera::{SharedFrames, SharedRgbd};
-
-/// Which rig runs a trial.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RigKind {
-    /// The simulated rig (physics model of the hand, object and sensors).
-    Sim,
-    /// The real rig, with the devices of the rig configuration's `[hw]` table.
-    Hw,
-}
-
-/// What to run.
-pub struct TrialSpec<'a> {
-    /// The rig.
-    pub rig: &'a RigConfig,
-    /// The object.
-    pub object: &'a ObjectConfig,
-    /// Seed of the simulated rig.
-    pub seed: u64,
-    /// Trial number.
-    pub trial: u32,
-    /// Duration of the sliding cycles (s).
-    pub duration_s: f64,
-    /// Render, detect and record the camera.
-    pub camera: bool,
-    /// Run on wall-clock time.
-    pub realtime: bool,
-    /// Replace an existing session file.
-    pub overwrite: bool,
-    /// Session file to write.
-    pub path: PathBuf,
-    /// Where the recorder also hands what it writes, for a live viewer
-    /// (`--live`); never waited for.
-    pub live: Option<LiveTap>,
-}
-
-/// A rig ready to run, with what the recorder needs to know about it.
-pub struct RigSetup {
-    /// The devices.
-    pub rig: Rig,
-    /// Facts about the tactile source, for the taxel layout.
-    pub tactile_info: TactileInfo,
-    /// The marker detection of the camera's frames, when there is a camera.
-    pub markers: Option<Box<dyn MarkerSource>>,
-    /// `sim`, `replay`, or the name of the real rig.
-    pub rig_name: String,
-    /// Further keys of the session's metadata record (a replay names its recording).
-    pub extra_metadata: BTreeMap<String, String>,
-    /// The RGB-D camera that is also the marker camera (`[hw.camera] kind =
-    /// "rgbd"`): it records its colour, depth and calibration once started
-    /// on the session, and is stopped before the session is finished.
-    pub rgbd: Option<SharedRgbd>,
-    /// Its pairs, for a vision tracker that takes them.
-    pub rgbd_frames: Option<SharedFrames>,
-}
-
-/// Whether a rig drives its hand.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum HandUse {
-    /// Open the hand actuator: the controlled-sliding protocol commands it.
-    Drive,
-    /// Never open the hand actuator (`slidetrack record`: something else may
-    /// drive the hand); only watch it where that needs no commands.
-    Watch,
-}
-
-/// A hand that is not driven: commands are refused, a release does nothing.
-pub struct UndrivenHand;
-
-impl HandActuator for UndrivenHand {
-    fn spec(&self) -> ActuatorSpec {
-        ActuatorSpec::FingerVolts { max_volts: 0.0 }
-    }
-
-    fn command(&mut self, _command: &ActuatorCommand) -> Result<(), DeviceError> {
-        Err(DeviceError::new(ErrorKind::Other, "hand", "this rig does not drive the hand"))
-    }
-
-    fn release(&mut self) -> Result<(), DeviceError> {
-        Ok(())
-    }
-
-    fn device(&self) -> &str {
-        "undriven hand"
-    }
-}
+use trial::sim_camera_renderer;
+pub use trial::{HandUse, RigKind, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 
 /// The simulated rig of `spec`'s trial, with its camera when asked for.
 pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
@@ -127,12 +39,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let tactile_info = sim.tactile.info();
     let geometry = &spec.rig.geometry;
     let (camera, markers) = if spec.camera {
-        let marker = marker_pattern(&spec.rig.marker.dictionary, spec.rig.marker.id)
-            .context("cannot make the marker for the simulated camera")?;
-        let seed = stream_seed(spec.seed, spec.trial, Stream::Camera);
-        let renderer =
-            SimCameraRenderer::new(spec.rig.camera.clone(), object.appearance.clone(), marker, seed)
-                .context("cannot set up the simulated camera")?;
+        let renderer = sim_camera_renderer(spec)?;
         let camera = SimCamera::new(
             sim.world.clone(),
             renderer,
@@ -149,7 +56,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
             }
         }));
         let markers = marker_tracking(spec, camera.hand_from_camera(), camera.intrinsics())?;
-        (Some(Box::new(camera) as Box<dyn Camera>), Some(Box::new(markers) as Box<dyn MarkerSource>))
+        (Some(Box::new(camera) as Box<dyn Camera>), Some(markers))
     } else {
         (None, None)
     };
@@ -170,21 +77,6 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         extra_metadata: BTreeMap::new(),
         rgbd: None,
         rgbd_frames: None,
-    })
-}
-
-/// Marker detection for a camera at `hand_from_camera` with `intrinsics`.
-pub fn marker_tracking(
-    spec: &TrialSpec,
-    hand_from_camera: nalgebra::Isometry3<f64>,
-    intrinsics: &CameraIntrinsics,
-) -> Result<LiveMarkers> {
-    let axis = SlidingAxis::new(hand_from_camera, spec.rig.geometry.sliding_axis_in_hand.into())?;
-    Ok(LiveMarkers {
-        tracker: MarkerTracker::new(Dictionary::from_name(&spec.rig.marker.dictionary)?, spec.rig.marker.id)?,
-        marker_size_m: spec.object.appearance.marker_size_m,
-        intrinsics: intrinsics.clone(),
-        projector: axis.projector(),
     })
 }
 
@@ -260,6 +152,8 @@ pub fn build_rig_with(kind: RigKind, spec: &TrialSpec, hand: HandUse) -> Result<
 
 #[cfg(test)]
 mod tests {
+    use std::path::PathBuf;
+
     use super::*;
 
     /// A real-time simulated rig whose set-up took a while (the camera's

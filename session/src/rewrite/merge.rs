@@ -5,7 +5,8 @@ use std::path::Path;
 use mcap::records::MessageHeader;
 use slidetrack_core::TimeNs;
 
-use super::{NewChannel, Survey, Writer};
+use super::survey::Survey;
+use super::types::{NewChannel, Writer};
 use crate::error::SessionError;
 
 /// The new channels, written in log-time order among the copied messages.

@@ -1,4 +1,4 @@
-//! The fast path of [`SessionInfo::read`](super::SessionInfo::read): the
+//! The fast path of [`SessionInfo::read`](crate::SessionInfo::read): the
 //! summary section, parsed by mcap's own [`SummaryReader`], plus the message
 //! indexes after each chunk (for per-channel first and last log times) and
 //! the metadata records the metadata indexes point at.
@@ -12,7 +12,7 @@ use mcap::records::{Record, op};
 use mcap::sans_io::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
 use slidetrack_core::TimeNs;
 
-use super::{ChannelTally, Parts, SessionInfo};
+use super::info::{ChannelTally, Parts, SessionInfo};
 use crate::error::{Corruption, SessionError};
 use crate::records::{RECORD_LENGTH_LIMIT, read_full};
 use crate::scan::FOOTER_AND_MAGIC;

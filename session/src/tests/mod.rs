@@ -8,6 +8,7 @@ mod other_channels;
 mod python;
 mod queue;
 mod read_all;
+mod read_all_body;
 mod records;
 mod roundtrip;
 mod schema_validation;
@@ -20,6 +21,9 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use slidetrack_core::{CameraIntrinsics, EncodedImage, Finger, PerFinger, Phase, TimeNs};
 
 use super::*;
+// The crate under the name `read_all_body` expects of its parent, as the
+// fuzz target names it.
+use crate as session;
 
 /// A fresh directory under the system temp dir, removed on drop.
 pub(super) struct TestDir(PathBuf);

@@ -77,6 +77,7 @@ pub(super) fn log_other_channels(rec: &Recorder) {
         log_one(rec, t, counters);
         let force = |f: f64| Xyz { x: 0.125 * f, y: -0.25, z: 1.5 + k };
         let sensors = vec![SensorValues { name: "left".into(), taxels: vec![force(1.0), force(2.0)] }];
+        log_one(rec, t, TactileReference { sequence: 7 + i, sensors: sensors.clone() });
         log_one(rec, t, TactileCalibrated { sequence: 7 + i, sensors });
         log_one(rec, t, TactileDeviceTime { sequence: 7 + i, device_time_s: 1_768_296_808.5 + 0.01 * k });
         let truth = GroundTruthSliding {

@@ -1,8 +1,8 @@
 //! Reads any bytes as a session every way the session readers offer.
 //!
 //! This module is shared: the fuzz target `fuzz/fuzz_targets/session_reader.rs`
-//! and the session crate's test `tests/read_all.rs` both declare it (with
-//! `#[path]`), so that the bounded in-repo test and the fuzzer exercise the
+//! and the session crate's tests (`tests/mod.rs`, for `tests/read_all.rs`) both
+//! declare it, so that the bounded in-repo test and the fuzzer exercise the
 //! same path. Its parent module names the session crate `session`.
 
 use std::io::Cursor;

@@ -5,7 +5,7 @@ use nalgebra::{Isometry3, Vector3};
 use serde::{Deserialize, Serialize};
 use slidetrack_core::{CameraIntrinsics, CameraPlacement, PixelFormat};
 
-use super::SimCameraError;
+use super::error::SimCameraError;
 
 /// Configuration of the simulated camera (the `[camera]` table of the rig TOML).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

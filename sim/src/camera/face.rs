@@ -2,8 +2,8 @@
 
 use slidetrack_core::MarkerPattern;
 
-use super::ObjectAppearance;
 use super::blocks::{PlanarPattern, disjoint, in_box, inside};
+use super::object::ObjectAppearance;
 use super::raster::PlaneInCamera;
 
 /// Number of parts before the marker cells: outside the face, face, sticker.
@@ -26,6 +26,20 @@ pub(super) struct FacePattern<'a> {
     ink_rgb: [f32; 3],
 }
 
+/// The face's, the paper's and the ink's colour on `plane`, lit by a light
+/// next to the camera: 75 % ambient, 25 % Lambertian.
+pub(super) fn lit_face_colours(appearance: &ObjectAppearance, plane: &PlaneInCamera) -> [[f32; 3]; 3] {
+    let centre = plane.point(0.0, 0.0);
+    let cos = (-plane.normal().dot(&centre) / centre.norm().max(1e-12)).clamp(0.0, 1.0);
+    let shade = (0.75 + 0.25 * cos) as f32;
+    let gray = |g: u8| [f32::from(g) * shade; 3];
+    [
+        appearance.face_rgb.map(|c| f32::from(c) * shade),
+        gray(appearance.paper_gray),
+        gray(appearance.ink_gray),
+    ]
+}
+
 impl<'a> FacePattern<'a> {
     /// Lit by a light next to the camera: 75 % ambient, 25 % Lambertian.
     pub(super) fn new(
@@ -33,10 +47,7 @@ impl<'a> FacePattern<'a> {
         marker: &'a MarkerPattern,
         plane: &PlaneInCamera,
     ) -> FacePattern<'a> {
-        let centre = plane.point(0.0, 0.0);
-        let cos = (-plane.normal().dot(&centre) / centre.norm().max(1e-12)).clamp(0.0, 1.0);
-        let shade = (0.75 + 0.25 * cos) as f32;
-        let gray = |g: u8| [f32::from(g) * shade; 3];
+        let [face_rgb, paper_rgb, ink_rgb] = lit_face_colours(appearance, plane);
         let cell_m = appearance.cell_size_m(marker.cells);
         let [ma, mb] = appearance.marker_centre_on_face_m;
         let half_marker_m = appearance.marker_size_m / 2.0;
@@ -49,9 +60,9 @@ impl<'a> FacePattern<'a> {
             sticker_box_m: around(half_sticker_m),
             marker_box_m: around(half_marker_m),
             inv_cell_m: 1.0 / cell_m,
-            face_rgb: appearance.face_rgb.map(|c| f32::from(c) * shade),
-            paper_rgb: gray(appearance.paper_gray),
-            ink_rgb: gray(appearance.ink_gray),
+            face_rgb,
+            paper_rgb,
+            ink_rgb,
         }
     }
 

@@ -3,8 +3,8 @@
 use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::SimCameraError;
 use super::config::check_range;
+use super::error::SimCameraError;
 
 /// How the object looks: its marker face, the sticker and the marker on it.
 ///

@@ -8,13 +8,16 @@ use slidetrack_core::{CameraIntrinsics, Frame, Image, MarkerPattern, TimeNs, enc
 
 use super::blocks::{BlockScratch, PlanarPattern, Scene, Target, draw_plane};
 use super::board::{BoardPattern, Chessboard};
+use super::board_face::{BoardFacePattern, BoardPrint};
+use super::config::SimCameraConfig;
+use super::error::SimCameraError;
 use super::face::FacePattern;
+use super::object::ObjectAppearance;
 use super::raster::{
     FIXED_ONE, PixelRect, PlaneInCamera, UndistortionMap, blur, gaussian_kernel, outline_bbox, quantise,
     to_fixed,
 };
 use super::texture::{BackgroundPlane, Texture, splitmix64};
-use super::{ObjectAppearance, SimCameraConfig, SimCameraError};
 
 /// Renders the simulated camera's frames: the object's marker face in front of
 /// a static textured background, with distortion, blur, noise and JPEG.
@@ -26,6 +29,8 @@ pub struct SimCameraRenderer {
     config: SimCameraConfig,
     appearance: ObjectAppearance,
     marker: MarkerPattern,
+    /// A board printed instead of the marker.
+    board: Option<BoardPrint>,
     seed: u64,
     hand_from_camera: Isometry3<f64>,
     channels: usize,
@@ -84,6 +89,7 @@ impl SimCameraRenderer {
             config,
             appearance,
             marker,
+            board: None,
             seed,
             hand_from_camera,
             channels,
@@ -94,6 +100,36 @@ impl SimCameraRenderer {
             kernel,
             scratch: BlockScratch::default(),
         })
+    }
+
+    /// As [`SimCameraRenderer::new`], with a board printed on the face
+    /// instead of one marker, centred at `appearance.marker_centre_on_face_m`
+    /// (its centre frame, [`slidetrack_core::BoardLayout::board_from_centre`],
+    /// is then the "marker" frame of [`SimCameraRenderer::camera_from_marker`]).
+    pub fn with_board(
+        config: SimCameraConfig,
+        appearance: ObjectAppearance,
+        board: BoardPrint,
+        seed: u64,
+    ) -> Result<SimCameraRenderer, SimCameraError> {
+        board.layout.validate()?;
+        let expected = board.layout.markers().len();
+        let first =
+            board.markers.first().cloned().ok_or(SimCameraError::BoardMarkers { expected, given: 0 })?;
+        if board.markers.len() != expected || board.markers.iter().any(|m| m.cells != first.cells) {
+            return Err(SimCameraError::BoardMarkers { expected, given: board.markers.len() });
+        }
+        for m in &board.markers {
+            m.validate()?;
+        }
+        let mut renderer = SimCameraRenderer::new(config, appearance, first, seed)?;
+        renderer.board = Some(board);
+        Ok(renderer)
+    }
+
+    /// The board printed instead of the marker, if any.
+    pub fn board(&self) -> Option<&BoardPrint> {
+        self.board.as_ref()
     }
 
     /// With `exhaustive`, renders every pixel of the plane's surroundings one
@@ -153,14 +189,21 @@ impl SimCameraRenderer {
         let camera_from_face =
             self.hand_from_camera.inverse() * hand_from_object * self.appearance.object_from_face();
         let plane = PlaneInCamera::new(&camera_from_face, false);
-        let pattern = FacePattern::new(&self.appearance, &self.marker, &plane);
         let [w, h] = self.appearance.face_size_m.map(|s| s / 2.0);
         let outline = [(-w, -h), (w, -h), (w, h), (-w, h)];
         let noise_key = splitmix64(self.seed ^ splitmix64(sequence));
         let mut scratch = std::mem::take(&mut self.scratch);
-        let visible =
-            plane.faces_camera().then_some(Drawn { plane: &plane, pattern: &pattern, outline: &outline });
-        let image = self.compose(visible, noise_key, &mut scratch);
+        let image = if let Some(board) = &self.board {
+            let pattern = BoardFacePattern::new(&self.appearance, board, &plane);
+            let visible =
+                plane.faces_camera().then_some(Drawn { plane: &plane, pattern: &pattern, outline: &outline });
+            self.compose(visible, noise_key, &mut scratch)
+        } else {
+            let pattern = FacePattern::new(&self.appearance, &self.marker, &plane);
+            let visible =
+                plane.faces_camera().then_some(Drawn { plane: &plane, pattern: &pattern, outline: &outline });
+            self.compose(visible, noise_key, &mut scratch)
+        };
         self.scratch = scratch;
         image
     }

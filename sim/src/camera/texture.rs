@@ -5,7 +5,7 @@ use nalgebra::{Isometry3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::BackgroundConfig;
+use super::config::BackgroundConfig;
 use super::raster::{PixelRect, UndistortionMap, luma};
 
 /// A rectangle painted on the plane, in plane coordinates (m).

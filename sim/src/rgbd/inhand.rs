@@ -7,7 +7,7 @@ use nalgebra::{Isometry3, Vector3};
 use slidetrack_core::{CameraIntrinsics, ObjectTruth, RgbdFrame, TimeNs};
 use slidetrack_render::TriangleMesh;
 
-use super::RgbdSimError;
+use super::error::RgbdSimError;
 use super::scene::{RgbdScene, RgbdSceneConfig};
 use super::texture::Texture;
 use crate::ObjectGeometry;

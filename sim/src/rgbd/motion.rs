@@ -7,8 +7,8 @@ use serde::{Deserialize, Serialize};
 use slidetrack_core::{CameraIntrinsics, MarkerPattern, ObjectTruth, RgbdFrame, TimeNs};
 use slidetrack_render::{TriangleMesh, splitmix64};
 
-use super::RgbdSimError;
 use super::decal::MarkerDecal;
+use super::error::RgbdSimError;
 use super::scene::{RgbdScene, RgbdSceneConfig};
 use super::texture::Texture;
 

@@ -7,8 +7,8 @@ use serde::{Deserialize, Serialize};
 use slidetrack_core::{CameraIntrinsics, DepthImage, Image, PixelFormat};
 use slidetrack_render::{PixelRegion, Rasterizer, TriangleMesh, splitmix64};
 
-use super::RgbdSimError;
 use super::decal::MarkerDecal;
+use super::error::RgbdSimError;
 use super::texture::Texture;
 
 /// The depth sensor's imperfections.

@@ -16,7 +16,9 @@ use std::time::{Duration, Instant};
 use nalgebra::Isometry3;
 use slidetrack_core::{Camera, CameraIntrinsics, DeviceError, ErrorKind, Frame, RgbdFrame, TimeNs};
 
-use super::{RgbdSample, RgbdSource, decode_color, decode_depth, register_depth_to_color};
+use super::codec::{decode_color, decode_depth};
+use super::registration::register_depth_to_color;
+use super::source::{RgbdSample, RgbdSource};
 use crate::VisionError;
 
 /// Depth not registered to the colour camera: what moves it there.

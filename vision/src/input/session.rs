@@ -11,7 +11,8 @@ use slidetrack_session::{
     RgbdDepth, RgbdMask, read_channel,
 };
 
-use super::{RgbdSample, RgbdSource, decode_color};
+use super::codec::decode_color;
+use super::source::{RgbdSample, RgbdSource};
 use crate::VisionError;
 
 /// The RGB-D frames of a session.

@@ -11,7 +11,8 @@ use opencv::imgcodecs;
 use opencv::prelude::*;
 use slidetrack_core::{CameraIntrinsics, ObjectTruth, RgbdFrame, TimeNs};
 
-use super::{RgbdSample, RgbdSource, bgr_mat_to_rgb, depth_mat};
+use super::codec::{bgr_mat_to_rgb, depth_mat};
+use super::source::{RgbdSample, RgbdSource};
 use crate::VisionError;
 use crate::error::OpenCvContext;
 

@@ -13,7 +13,7 @@ use slidetrack_core::{CameraIntrinsics, DepthImage, RgbdFrame, TimeNs};
 use slidetrack_estimators::roft::Mask;
 
 use super::rendered_mask::MaskRenderer;
-use super::{Arrivals, Delayed, FrameTruth, MeasurementSource};
+use super::source::{Arrivals, Delayed, FrameTruth, MeasurementSource};
 use crate::VisionError;
 use crate::cloud::pinhole;
 use crate::model::ObjectModel;

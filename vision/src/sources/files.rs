@@ -12,7 +12,7 @@ use slidetrack_core::TimeNs;
 use slidetrack_estimators::roft::Mask;
 use slidetrack_session::{ChannelMessage, MessageReader, RawMessage, ReadOptions, VisionMask, VisionPose};
 
-use super::{Arrivals, Delayed, FrameTruth, MeasurementSource};
+use super::source::{Arrivals, Delayed, FrameTruth, MeasurementSource};
 use crate::VisionError;
 use crate::error::OpenCvContext;
 

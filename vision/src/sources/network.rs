@@ -14,7 +14,7 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use slidetrack_core::TimeNs;
 use slidetrack_estimators::roft::Mask;
 
-use super::{Arrivals, Delayed, FrameTruth, MeasurementSource};
+use super::source::{Arrivals, Delayed, FrameTruth, MeasurementSource};
 use crate::VisionError;
 
 /// How the imitated network behaves.

@@ -15,7 +15,7 @@
 //! microseconds, relative or absolute as candump printed them (the caller
 //! knows which `-t` it used); a date (`-t A`) is not read: no time.
 
-use super::{CandumpFrame, CandumpParseError, CandumpRecord, ERROR_FLAG, bad, parse_seconds};
+use super::record::{CandumpFrame, CandumpParseError, CandumpRecord, ERROR_FLAG, bad, parse_seconds};
 
 /// Parses one line (without its newline) of candump's console output.
 pub fn parse_plain_line(line: &str) -> Result<CandumpRecord, CandumpParseError> {
@@ -79,7 +79,6 @@ pub fn format_plain_line(t_us: Option<u64>, interface: &str, id: u32, extended: 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::can::candump::parse_any_line;
 
     #[test]
     fn the_console_formats_parse() {
@@ -104,9 +103,6 @@ mod tests {
         assert_eq!(line, " (000.001021)  can0  201   [2]  07 00");
         assert_eq!(parse_plain_line(&line).unwrap().t_us, Some(1021));
         assert_eq!(format_plain_line(None, "can0", 0x201, false, &[]), "  can0  201   [0] ");
-        // Both formats through one entry point.
-        assert_eq!(parse_any_line("(1.000000) can0 201#0700").unwrap().t_us, Some(1_000_000));
-        assert_eq!(parse_any_line("  can0  201   [2]  07 00").unwrap().t_us, None);
     }
 
     #[test]

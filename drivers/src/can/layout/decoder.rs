@@ -3,7 +3,8 @@
 
 use slidetrack_core::{DecoderCounters, RawTaxel, TimeNs};
 
-use super::{Payload, ResolvedLayout, ScanMode};
+use super::payload::Payload;
+use super::resolved::{ResolvedLayout, ScanMode};
 use crate::can::protocol::CanFrame;
 
 /// One scan: every mapped taxel, in slot order.

@@ -19,7 +19,7 @@ fn can_cfg() -> CanTactileConfig {
             cols: 4,
             taxel_positions_mm: None,
         }],
-        fingers: PerFinger::from_fn(|_| FingerReading::mean("patch")),
+        fingers: Some(PerFinger::from_fn(|_| FingerReading::mean("patch"))),
         ..CanTactileConfig::default()
     }
 }

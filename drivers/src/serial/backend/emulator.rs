@@ -12,8 +12,8 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 use slidetrack_core::{Clock, DeviceError, ErrorKind, RawTaxel, TactileSource};
 
+use super::device::SerialTactile;
 use crate::emulated::{EMULATED_PORT, Emulated, check_emulated_sensors, sensor_grids};
-use crate::serial::backend::SerialTactile;
 use crate::serial::config::{EmulatorConfig, SerialTactileConfig};
 use crate::serial::protocol::{FrameEncodeError, MAX_TAXELS, ModuleFrame, SYNC};
 

@@ -1,7 +1,11 @@
 //! The streaming decoder of what an adapter sends.
 
-use super::{BEL, CR, MAX_LINE, MalformedReason, SHOWN, SlcanCounters, SlcanEvent, shown};
+use super::events::{MalformedReason, SlcanCounters, SlcanEvent};
+use super::wire::{BEL, CR, MAX_LINE};
 use crate::can::protocol::CanFrame;
+
+/// Characters of a malformed line kept in [`SlcanEvent::Malformed`].
+const SHOWN: usize = 40;
 
 /// Splits an adapter's byte stream into lines and decodes them.
 ///
@@ -183,4 +187,13 @@ pub fn parse_frame_line(line: &[u8]) -> Result<(CanFrame, bool, Option<u16>), Ma
     }
     let frame = CanFrame::new(id, extended, &data[..len]).ok_or(MalformedReason::IdOutOfRange)?;
     Ok((frame, remote, timestamp_ms))
+}
+
+/// `bytes` as printable text (at most `max` bytes of it, `…` when cut).
+fn shown(bytes: &[u8], max: usize) -> String {
+    let mut s = bytes[..bytes.len().min(max)].escape_ascii().to_string();
+    if bytes.len() > max {
+        s.push('…');
+    }
+    s
 }

@@ -1,7 +1,7 @@
 //! Unwrapping the adapter's timestamps, which count milliseconds modulo one
 //! minute.
 
-use super::TIMESTAMP_PERIOD_MS;
+use super::wire::TIMESTAMP_PERIOD_MS;
 
 /// Turns the adapter's frame timestamps (milliseconds modulo 60000) into a
 /// monotonic count of milliseconds on the adapter's clock.

@@ -23,8 +23,7 @@ use crate::xela_ws::protocol::{
 
 mod live;
 
-/// How often the server thread looks at its stop flag while it waits (ms).
-const POLL: Duration = Duration::from_millis(2);
+use live::POLL;
 
 /// One message of the script.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -4,7 +4,9 @@
 use slidetrack_core::DecoderCounters;
 use thiserror::Error;
 
-use super::{XelaEvent, XelaParseError, XelaScan, parse_message};
+use super::error::XelaParseError;
+use super::message::{XelaEvent, XelaScan};
+use super::parse::parse_message;
 
 /// A sensor the rig expects the server to report.
 #[derive(Clone, Debug, PartialEq, Eq)]

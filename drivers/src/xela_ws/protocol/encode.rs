@@ -3,7 +3,7 @@
 
 use serde_json::{Map, Value, json};
 
-use super::{WELCOME, XelaScan, XelaSensorScan};
+use super::message::{WELCOME, XelaScan, XelaSensorScan};
 
 /// How a data message writes the raw counts, as the server versions do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

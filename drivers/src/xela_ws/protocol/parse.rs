@@ -2,9 +2,8 @@
 
 use serde_json::{Map, Value};
 
-use super::{
-    TaxelCounts, TaxelForce, WELCOME, XelaEvent, XelaParseError, XelaScan, XelaSensorScan, XelaWelcome,
-};
+use super::error::XelaParseError;
+use super::message::{TaxelCounts, TaxelForce, WELCOME, XelaEvent, XelaScan, XelaSensorScan, XelaWelcome};
 
 /// What `"message"` must be.
 const COUNTER: &str = "a message counter (integer ≥ 0) or \"Welcome\"";

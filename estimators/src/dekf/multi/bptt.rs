@@ -10,7 +10,7 @@ use nalgebra::DMatrix;
 use super::ekf::{
     CorrectGrad, Corrected, Mat, Predicted, Vect, correct, correct_backward, predict, predict_backward,
 };
-use crate::dekf::bptt::{BatchGrad, Sequence, Window};
+use crate::dekf::batch::{BatchGrad, Sequence, Window};
 use crate::dekf::mlp::{Tape, backward, forward};
 use crate::dekf::model::DekfModel;
 

@@ -24,7 +24,7 @@ use slidetrack_core::{CameraIntrinsics, RgbdFrame, TimeNs};
 pub use protocol::{ClientMessage, ExternalError, MaskMessage, ServerMessage};
 use server::{Event, Writer};
 
-use super::{Arrivals, Delayed, FrameTruth, MeasurementSource};
+use super::source::{Arrivals, Delayed, FrameTruth, MeasurementSource};
 use crate::VisionError;
 
 /// Settings of [`ExternalSource`].

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use slidetrack_estimators::roft::Mask;
 
 pub use crate::error::ExternalError;
-use crate::sources::PoseConfig;
+use crate::sources::aruco::PoseConfig;
 
 /// The protocol's name in the handshake.
 pub const PROTOCOL: &str = "slidetrack-vision-source";

@@ -83,11 +83,11 @@ fn tactile_cfg() -> CanTactileConfig {
         taxels_per_module: 16,
         // A 1x4 strip on module 0 (board taxels 0-3), a 2x5 patch on module 1 (16-25).
         sensors: vec![sensor("strip", 0, 1, 4), sensor("patch", 1, 2, 5)],
-        fingers: PerFinger {
+        fingers: Some(PerFinger {
             thumb: FingerReading::taxel("strip", 2),
             index: FingerReading::taxel("patch", 0),
             middle: FingerReading::mean("patch"),
-        },
+        }),
         timeout_ms: 30,
         startup_timeout_ms: 30,
         // The legacy drivers' status byte, checked only because it is configured.
@@ -123,7 +123,7 @@ fn the_board_is_started_and_its_scans_read_through_the_finger_map() {
     let c = tactile.counters().unwrap();
     assert_eq!((c.frames, c.invalid_samples, c.incomplete_scans), (42, 1, 1), "only mapped ids count");
     let info = tactile.info();
-    assert_eq!((info.layout.taxel_count(), info.fingers), (14, cfg.fingers.clone()));
+    assert_eq!((info.layout.taxel_count(), info.fingers), (14, cfg.fingers.clone().unwrap()));
     let e = tactile.read().unwrap_err();
     assert_eq!(e.kind, ErrorKind::Timeout);
     assert!(e.detail.contains("no complete scan"), "{e}");
@@ -288,7 +288,7 @@ fn frames_are_stamped_with_their_age_on_the_session_clock() {
     }
     let mut cfg = tactile_cfg();
     cfg.sensors = vec![sensor("one", 0, 1, 1)];
-    cfg.fingers = PerFinger::from_fn(|_| FingerReading::taxel("one", 0));
+    cfg.fingers = Some(PerFinger::from_fn(|_| FingerReading::taxel("one", 0)));
     let frame = cfg.legacy_layout().taxel_frame(0, [1, 2, 3], true);
     let clock = Arc::new(slidetrack_core::SimClock::new());
     clock.sleep_until(slidetrack_core::TimeNs(1_000_000_000));

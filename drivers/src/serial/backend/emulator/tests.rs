@@ -56,7 +56,7 @@ fn hw_sensors(rows: u32) -> Vec<HwSensor> {
 fn cfg(faults: EmulatorConfig) -> SerialTactileConfig {
     SerialTactileConfig {
         sensors: hw_sensors(2),
-        fingers: PerFinger::from_fn(|_| FingerReading::taxel("c", 3)),
+        fingers: Some(PerFinger::from_fn(|_| FingerReading::taxel("c", 3))),
         timeout_ms: 500,
         emulator: faults,
         ..SerialTactileConfig::default()

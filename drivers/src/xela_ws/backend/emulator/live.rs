@@ -12,7 +12,9 @@ use crossbeam_channel::{Receiver, RecvTimeoutError};
 use tungstenite::protocol::Message;
 use tungstenite::{Error as WsError, WebSocket};
 
-use super::POLL;
+/// How often a server thread (this one's and the recorded emulator's)
+/// looks at its stop flag while it waits (ms).
+pub(super) const POLL: Duration = Duration::from_millis(2);
 
 /// What a live feed sends to the emulator.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -1,0 +1,115 @@
+//! `calibrate hand`: the camera's pose in the hand frame from a marker fixed
+//! to the hand at a known mount pose (`[hand_target]` in the rig TOML).
+//!
+//! With `--rig sim` the simulated camera renders the hand's target (the
+//! object is not in the scene) for a number of frames; the result is compared
+//! with the simulated camera's configured placement.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use nalgebra::Isometry3;
+use serde::Serialize;
+use slidetrack_calibration::hand_eye::{
+    HandCalibration, HandEyeOptions, TargetView, estimate_hand_from_camera, pose_difference,
+};
+use slidetrack_calibration::{Dictionary, MarkerTracker, marker_pattern, marker_pose};
+use slidetrack_sim::camera::{ObjectAppearance, SimCameraRenderer};
+
+use crate::hand_target::HandTargetConfig;
+use crate::rig_config::RigConfig;
+
+/// What `calibrate hand` reads.
+#[derive(Clone, Debug)]
+pub struct HandCalibrationOptions {
+    /// The rig configuration (TOML) with `[hand_target]`.
+    pub config: Option<PathBuf>,
+    /// Frames to render from the simulated camera.
+    pub frames: usize,
+    /// Seed of the simulated camera's noise.
+    pub seed: u64,
+    /// Where to write the `[camera] placement` (TOML), if anywhere.
+    pub out: Option<PathBuf>,
+}
+
+/// The result, and the simulator's truth to compare it with.
+#[derive(Clone, Debug, Serialize)]
+pub struct HandCalibrationRun {
+    /// The estimate and its uncertainty.
+    pub calibration: HandCalibration,
+    /// The ready-to-paste `placement = ...` line.
+    pub placement_toml: String,
+    /// Error against the simulated camera's true placement (mm, degrees).
+    pub sim_error_mm_deg: Option<(f64, f64)>,
+}
+
+/// Renders the hand's target with the simulated camera and estimates the
+/// camera's placement in the hand frame.
+pub fn calibrate_hand_sim(options: &HandCalibrationOptions) -> Result<HandCalibrationRun> {
+    let rig = RigConfig::load(options.config.as_deref())?;
+    let target = rig.hand_target.clone().context(
+        "the rig config has no [hand_target] (dictionary, id, marker_size_m, hand_from_target): nothing to calibrate against",
+    )?;
+    let hand_from_target = target.hand_from_target.isometry()?;
+    let (mut renderer, hand_from_plate) = target_renderer(&rig, &target, &hand_from_target, options.seed)?;
+    let mut tracker = MarkerTracker::new(Dictionary::from_name(&target.dictionary)?, target.id)?;
+    let mut views = Vec::with_capacity(options.frames);
+    for k in 0..options.frames as u64 {
+        let image = renderer.render_image(&hand_from_plate, k);
+        tracker.reset();
+        let Some(d) = tracker.detect(&image)? else { continue };
+        let p = marker_pose(&d, renderer.intrinsics(), target.marker_size_m)?;
+        views.push(TargetView {
+            camera_from_target: p.camera_from_marker,
+            reprojection_error_px: p.reprojection_error_px,
+        });
+    }
+    let calibration = estimate_hand_from_camera(&hand_from_target, &views, &HandEyeOptions::default())
+        .context("calibrate hand")?;
+    let truth = *renderer.hand_from_camera();
+    let run = HandCalibrationRun {
+        placement_toml: calibration.placement_toml(),
+        sim_error_mm_deg: Some(pose_difference(&calibration.hand_from_camera(), &truth)),
+        calibration,
+    };
+    if let Some(out) = &options.out {
+        write_placement(out, &run)?;
+    }
+    Ok(run)
+}
+
+/// The simulated camera with the hand's marker printed on a plate (drawn
+/// as the "object" face), and the plate's pose in the hand frame.
+fn target_renderer(
+    rig: &RigConfig,
+    target: &HandTargetConfig,
+    hand_from_target: &Isometry3<f64>,
+    seed: u64,
+) -> Result<(SimCameraRenderer, Isometry3<f64>)> {
+    let side_m = target.marker_size_m * 1.6;
+    let appearance = ObjectAppearance {
+        face_size_m: [side_m, side_m],
+        marker_size_m: target.marker_size_m,
+        marker_centre_on_face_m: [0.0, 0.0],
+        ..ObjectAppearance::default()
+    };
+    let hand_from_plate = hand_from_target * appearance.object_from_marker().inverse();
+    let marker = marker_pattern(&target.dictionary, target.id)?;
+    let renderer = SimCameraRenderer::new(rig.camera.clone(), appearance, marker, seed)?;
+    Ok((renderer, hand_from_plate))
+}
+
+/// Writes `[camera]` with the placement line, the uncertainty as comments.
+fn write_placement(path: &Path, run: &HandCalibrationRun) -> Result<()> {
+    let c = &run.calibration;
+    let text = format!(
+        "# calibrate hand: {} frames; standard error {:.3} mm, {:.4} deg; per-frame spread {:.3} mm, {:.4} deg\n[camera]\n{}\n",
+        c.frames_used,
+        c.translation_std_error_mm,
+        c.rotation_std_error_deg,
+        c.translation_spread_mm,
+        c.rotation_spread_deg,
+        run.placement_toml
+    );
+    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+}
