@@ -92,6 +92,24 @@ impl RgbdChannels {
         Ok(())
     }
 
+    /// Logs the colour and depth of one pair without ever blocking (a
+    /// camera's own recording beside a trial): each is dropped, and counted
+    /// in the session's `images_dropped`, when the writer is behind. Returns
+    /// whether both were queued.
+    pub fn log_pair_lossy(
+        &self,
+        logger: &Logger,
+        frame: &RgbdFrame,
+        color_jpeg: &EncodedImage,
+    ) -> Result<bool, VisionError> {
+        let (t, seq) = (frame.t, frame.sequence as u32);
+        let color = RgbdColor(CompressedImage::new(t, CAMERA_FRAME, color_jpeg));
+        let color_queued = logger.log_json_lossy(&self.color, t, t, seq, &color)?;
+        let depth = RgbdDepth::new(t, CAMERA_FRAME, &frame.depth)?;
+        let depth_queued = logger.log_json_lossy(&self.depth, t, t, seq, &depth)?;
+        Ok(color_queued && depth_queued)
+    }
+
     /// Logs a mask of the segmentation source computed on frame `frame_t`,
     /// arriving at `arrival_t`.
     pub fn log_vision_mask(

@@ -32,6 +32,12 @@ impl LiveCamera {
         self.reports.iter().map(|r| r()).collect()
     }
 
+    /// A camera of `pair` alone, with no counts of its own (tests).
+    #[cfg(test)]
+    pub(crate) fn from_pair(pair: CameraPair) -> LiveCamera {
+        LiveCamera { pair, replay: None, reports: Vec::new() }
+    }
+
     /// The pair, to hand to another thread, and the streams' counts.
     pub fn split(self) -> (CameraPair, StreamCounts) {
         (self.pair, StreamCounts(self.reports))

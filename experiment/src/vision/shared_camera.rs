@@ -12,6 +12,13 @@
 //!
 //! V4L2 lets one process stream a node once: this is how the marker's
 //! ground truth, a vision tracker and the recording share the device.
+//!
+//! A slow consumer never stops the camera nor the trial: one thread only
+//! reads the camera and hands each pair to a second that encodes, records
+//! and hands on; when that one is behind, pairs are dropped and counted
+//! (logged once when it starts, and in the lines [`SharedRgbd::stop`]
+//! returns), as are the frames a full marker or vision queue refuses, and
+//! the images the session's writer refuses (its `images_dropped`).
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -20,7 +27,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
-use crossbeam_channel::{Receiver, RecvTimeoutError, SendTimeoutError, Sender, TryRecvError};
+use crossbeam_channel::{Receiver, RecvTimeoutError, SendTimeoutError, Sender, TryRecvError, TrySendError};
 use slidetrack_core::{Camera, CameraIntrinsics, DeviceError, ErrorKind, Frame};
 use slidetrack_session::Logger;
 use slidetrack_vision::VisionError;
@@ -33,6 +40,9 @@ use super::camera::{LiveCamera, StreamCounts};
 const JPEG_QUALITY: i32 = 90;
 /// Colour frames waiting for the trial's marker detection; older ones are dropped.
 const MARKER_QUEUE: usize = 8;
+/// Pairs read from the camera, waiting to be encoded and recorded; newer
+/// ones are dropped while the recorder is behind (a live camera).
+const RECORD_QUEUE: usize = 4;
 /// Pairs waiting for the vision tracker (a live camera: newer ones are
 /// dropped while it is behind; a replay of every frame: the camera waits).
 const VISION_QUEUE: usize = 2;
@@ -52,9 +62,12 @@ pub struct SharedRgbd {
     /// thread (whose end then ends the consumers' streams).
     senders: Option<(Sender<Frame>, Sender<RgbdSample>)>,
     stop: Arc<AtomicBool>,
-    recorded: Arc<AtomicU64>,
+    tally: Arc<Tally>,
     failure: Failure,
-    thread: Option<JoinHandle<()>>,
+    threads: Vec<JoinHandle<()>>,
+    /// Test hook: time the recorder spends on each pair on top of its work
+    /// (a slow disk or a loaded machine).
+    pub recorder_delay: Duration,
     /// The recording replayed, and its offset (session minus recording time, ns).
     pub replay: Option<(PathBuf, i128)>,
 }
@@ -99,9 +112,10 @@ impl SharedRgbd {
             every_frame,
             senders: Some((marker_tx, vision_tx)),
             stop: Arc::default(),
-            recorded: Arc::default(),
+            tally: Arc::default(),
             failure,
-            thread: None,
+            threads: Vec::new(),
+            recorder_delay: Duration::ZERO,
             replay,
         };
         (shared, color, frames)
@@ -118,45 +132,142 @@ impl SharedRgbd {
         let pair = self.pending.take().context("the shared RGB-D camera was started already")?;
         let (marker_tx, vision_tx) = self.senders.take().context("the shared RGB-D camera was stopped")?;
         let channels = RgbdChannels::register(logger, &self.intrinsics)?;
-        let worker = Worker {
+        let (record_tx, record_rx) = crossbeam_channel::bounded(RECORD_QUEUE);
+        let recorder = Recorder {
             logger: logger.clone(),
             channels,
             marker_tx,
             vision_tx,
             every_frame: self.every_frame,
             stop: Arc::clone(&self.stop),
-            recorded: Arc::clone(&self.recorded),
+            tally: Arc::clone(&self.tally),
+            delay: self.recorder_delay,
+        };
+        let reader = Reader {
+            record_tx,
+            every_frame: self.every_frame,
+            stop: Arc::clone(&self.stop),
+            tally: Arc::clone(&self.tally),
         };
         let failure = Arc::clone(&self.failure);
-        let thread = std::thread::Builder::new()
-            .name("rgbd-camera".into())
-            .spawn(move || {
-                let mut pair = pair;
-                if let Err(e) = worker.run(&mut pair)
-                    && let Ok(mut f) = failure.lock()
-                {
-                    *f = Some(format!("{e:#}"));
+        let record_failure = Arc::clone(&self.failure);
+        let spawn = |name: &str, f: Box<dyn FnOnce() + Send>| {
+            std::thread::Builder::new()
+                .name(name.into())
+                .spawn(f)
+                .with_context(|| format!("cannot start the RGB-D camera's {name} thread"))
+        };
+        self.threads.push(spawn(
+            "rgbd-record",
+            Box::new(move || {
+                if let Err(e) = recorder.run(&record_rx) {
+                    fail(&record_failure, &e);
                 }
-            })
-            .context("cannot start the RGB-D camera's thread")?;
-        self.thread = Some(thread);
+            }),
+        )?);
+        self.threads.push(spawn(
+            "rgbd-camera",
+            Box::new(move || {
+                let mut pair = pair;
+                if let Err(e) = reader.run(&mut pair) {
+                    fail(&failure, &e);
+                }
+            }),
+        )?);
         Ok(())
     }
 
     /// Stops reading (before the session is finished) and says what was
-    /// recorded and what each stream counted; the camera's error, if it failed.
+    /// recorded, dropped, and what each stream counted; the camera's error,
+    /// if it failed.
     pub fn stop(&mut self) -> Result<Vec<String>> {
         self.stop.store(true, Ordering::SeqCst);
         self.senders = None;
-        if let Some(t) = self.thread.take() {
+        for t in self.threads.drain(..).rev() {
             t.join().map_err(|_| anyhow!("the RGB-D camera's thread panicked"))?;
         }
-        if let Some(e) = self.failure.lock().ok().and_then(|f| f.clone()) {
+        if let Some(e) = failed(&self.failure) {
             return Err(anyhow!("the RGB-D camera failed: {e}"));
         }
-        let mut lines = vec![format!("rgbd camera: {} pairs recorded", self.recorded.load(Ordering::SeqCst))];
+        let mut lines = vec![self.tally.line()];
         lines.extend(self.counts.lines());
         Ok(lines)
+    }
+
+    /// What was read, recorded and dropped so far.
+    pub fn tally(&self) -> TallyCounts {
+        self.tally.counts()
+    }
+}
+
+/// Counts of the shared camera, live.
+#[derive(Debug, Default)]
+struct Tally {
+    read: AtomicU64,
+    recorded: AtomicU64,
+    dropped_recorder_behind: AtomicU64,
+    dropped_writer_behind: AtomicU64,
+    dropped_marker_behind: AtomicU64,
+    dropped_vision_behind: AtomicU64,
+}
+
+/// A snapshot of [`Tally`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TallyCounts {
+    /// Pairs read from the camera.
+    pub read: u64,
+    /// Pairs whose colour and depth the session's writer took.
+    pub recorded: u64,
+    /// Pairs dropped before encoding: the recorder was behind.
+    pub dropped_recorder_behind: u64,
+    /// Pairs the session's writer refused (in part) while it was behind.
+    pub dropped_writer_behind: u64,
+    /// Colour frames the trial's marker detection was too slow to take.
+    pub dropped_marker_behind: u64,
+    /// Pairs a live vision tracker was too slow to take.
+    pub dropped_vision_behind: u64,
+}
+
+impl Tally {
+    fn counts(&self) -> TallyCounts {
+        let get = |c: &AtomicU64| c.load(Ordering::SeqCst);
+        TallyCounts {
+            read: get(&self.read),
+            recorded: get(&self.recorded),
+            dropped_recorder_behind: get(&self.dropped_recorder_behind),
+            dropped_writer_behind: get(&self.dropped_writer_behind),
+            dropped_marker_behind: get(&self.dropped_marker_behind),
+            dropped_vision_behind: get(&self.dropped_vision_behind),
+        }
+    }
+
+    fn line(&self) -> String {
+        let c = self.counts();
+        format!(
+            "rgbd camera: {} pairs read, {} recorded; dropped: {} while the recorder was behind, {} while \
+             the session writer was behind, {} colour frames while the marker detection was behind, {} pairs \
+             while the vision tracker was behind",
+            c.read,
+            c.recorded,
+            c.dropped_recorder_behind,
+            c.dropped_writer_behind,
+            c.dropped_marker_behind,
+            c.dropped_vision_behind
+        )
+    }
+
+    /// Counts one drop in `counter`, warning the first time the camera drops.
+    fn drop_one(&self, counter: &AtomicU64, why: &str) {
+        if counter.fetch_add(1, Ordering::SeqCst) == 0 {
+            tracing::warn!("rgbd camera: {why}: dropping pairs (counted; see the end of the trial)");
+        }
+    }
+}
+
+/// Records `e` as the camera's failure.
+fn fail(failure: &Failure, e: &anyhow::Error) {
+    if let Ok(mut f) = failure.lock() {
+        f.get_or_insert_with(|| format!("{e:#}"));
     }
 }
 
@@ -178,31 +289,75 @@ pub fn stop_recording(shared: Option<SharedRgbd>) {
 impl Drop for SharedRgbd {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::SeqCst);
-        if let Some(t) = self.thread.take() {
+        for t in self.threads.drain(..).rev() {
             let _ = t.join();
         }
     }
 }
 
-/// The camera's thread: reads pairs, records them, hands them on.
-struct Worker {
+/// The camera's thread: reads pairs and hands them to the recorder, never
+/// waiting for it on a live camera.
+struct Reader {
+    record_tx: Sender<RgbdSample>,
+    every_frame: bool,
+    stop: Arc<AtomicBool>,
+    tally: Arc<Tally>,
+}
+
+impl Reader {
+    fn run(self, pair: &mut CameraPair) -> Result<()> {
+        while !self.stop.load(Ordering::SeqCst) {
+            let Some(sample) = pair.next_frame()? else { return Ok(()) };
+            self.tally.read.fetch_add(1, Ordering::SeqCst);
+            if self.every_frame {
+                if !send_unless_stopped(&self.record_tx, sample, &self.stop) {
+                    return Ok(());
+                }
+            } else if let Err(TrySendError::Full(_)) = self.record_tx.try_send(sample) {
+                self.tally.drop_one(&self.tally.dropped_recorder_behind, "the recorder is behind");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Sends `item`, waiting while `tx` is full, until `stop`; whether it went
+/// (or the receiver is gone, which ends the stream the same way).
+fn send_unless_stopped<T>(tx: &Sender<T>, mut item: T, stop: &AtomicBool) -> bool {
+    while !stop.load(Ordering::SeqCst) {
+        match tx.send_timeout(item, Duration::from_millis(50)) {
+            Ok(()) => return true,
+            Err(SendTimeoutError::Disconnected(_)) => return false,
+            Err(SendTimeoutError::Timeout(back)) => item = back,
+        }
+    }
+    false
+}
+
+/// The recorder's thread: encodes and records each pair, hands it on.
+struct Recorder {
     logger: Logger,
     channels: RgbdChannels,
     marker_tx: Sender<Frame>,
     vision_tx: Sender<RgbdSample>,
     every_frame: bool,
     stop: Arc<AtomicBool>,
-    recorded: Arc<AtomicU64>,
+    tally: Arc<Tally>,
+    delay: Duration,
 }
 
-impl Worker {
-    fn run(self, pair: &mut CameraPair) -> Result<()> {
-        while !self.stop.load(Ordering::SeqCst) {
-            let Some(sample) = pair.next_frame()? else { return Ok(()) };
+impl Recorder {
+    fn run(self, pairs: &Receiver<RgbdSample>) -> Result<()> {
+        // Ends when the reader does (its sender dropped), after the pairs it queued.
+        for sample in pairs {
+            std::thread::sleep(self.delay);
             let frame = &sample.frame;
             let jpeg = encode_color_jpeg(&frame.color, JPEG_QUALITY)?;
-            self.channels.log_frame(&self.logger, frame, &jpeg, None, None)?;
-            self.recorded.fetch_add(1, Ordering::SeqCst);
+            if self.channels.log_pair_lossy(&self.logger, frame, &jpeg)? {
+                self.tally.recorded.fetch_add(1, Ordering::SeqCst);
+            } else {
+                self.tally.drop_one(&self.tally.dropped_writer_behind, "the session writer is behind");
+            }
             let color = Frame {
                 t: frame.t,
                 sequence: frame.sequence,
@@ -211,7 +366,9 @@ impl Worker {
             };
             // The trial polls far more often than frames come: a full queue
             // means the trial is over or stuck, and the frame is dropped.
-            let _ = self.marker_tx.try_send(color);
+            if let Err(TrySendError::Full(_)) = self.marker_tx.try_send(color) {
+                self.tally.drop_one(&self.tally.dropped_marker_behind, "the marker detection is behind");
+            }
             self.to_vision(sample);
         }
         Ok(())
@@ -219,16 +376,11 @@ impl Worker {
 
     /// Hands `sample` to the vision tracker, if one listens: waiting for it
     /// on a replay of every frame, else dropping the pair while it is behind.
-    fn to_vision(&self, mut sample: RgbdSample) {
-        if !self.every_frame {
-            let _ = self.vision_tx.try_send(sample);
-            return;
-        }
-        while !self.stop.load(Ordering::SeqCst) {
-            match self.vision_tx.send_timeout(sample, Duration::from_millis(50)) {
-                Ok(()) | Err(SendTimeoutError::Disconnected(_)) => return,
-                Err(SendTimeoutError::Timeout(back)) => sample = back,
-            }
+    fn to_vision(&self, sample: RgbdSample) {
+        if self.every_frame {
+            send_unless_stopped(&self.vision_tx, sample, &self.stop);
+        } else if let Err(TrySendError::Full(_)) = self.vision_tx.try_send(sample) {
+            self.tally.drop_one(&self.tally.dropped_vision_behind, "the vision tracker is behind");
         }
     }
 }
@@ -285,3 +437,6 @@ impl RgbdSource for SharedFrames {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;
