@@ -11,12 +11,13 @@
 //! opened ([`HandUse::Watch`]). A device error or the end of the duration ends
 //! the recording; the file is finished (complete and readable) on every path.
 
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use slidetrack_control::{AbortReason, ProtocolEvent, TrialObserver};
-use slidetrack_core::{DeviceError, HandMonitor, Phase, TimeNs};
+use slidetrack_core::{DeviceError, HandMonitor, Phase, TactileInfo, TimeNs};
 use slidetrack_session::{Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TaxelLayout};
 
 use crate::observer::{SessionObserver, TrialStats};
@@ -82,6 +83,30 @@ impl RecordReport {
     }
 }
 
+/// The metadata record of a `record` session.
+fn record_metadata(
+    spec: &TrialSpec,
+    rig_name: String,
+    tactile_info: &TactileInfo,
+    extra_metadata: BTreeMap<String, String>,
+) -> Result<BTreeMap<String, String>> {
+    let metadata = SessionMetadata {
+        software_version: env!("CARGO_PKG_VERSION").into(),
+        rig: rig_name,
+        rig_config: toml::to_string(spec.rig).context("cannot serialise the rig configuration")?,
+        object: spec.object.name.clone(),
+        object_config: toml::to_string(spec.object).context("cannot serialise the object")?,
+        trial: spec.trial.to_string(),
+        seed: spec.seed,
+        started_at: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+    };
+    let mut metadata = metadata.to_map();
+    metadata.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(tactile_info).to_json());
+    metadata.insert(RECORDING_KIND_KEY.into(), "record".into());
+    metadata.extend(extra_metadata);
+    Ok(metadata)
+}
+
 /// Records the devices of `setup` into `spec.path` for `duration_s` seconds
 /// of session time (until `stop` when `None`). `progress` receives the
 /// session time of every scan.
@@ -95,20 +120,7 @@ pub fn record_devices(
     let started = Instant::now();
     let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, .. } = setup;
     let mut hand_monitor = rig.hand_monitor.take();
-    let metadata = SessionMetadata {
-        software_version: env!("CARGO_PKG_VERSION").into(),
-        rig: rig_name,
-        rig_config: toml::to_string(spec.rig).context("cannot serialise the rig configuration")?,
-        object: spec.object.name.clone(),
-        object_config: toml::to_string(spec.object).context("cannot serialise the object")?,
-        trial: spec.trial.to_string(),
-        seed: spec.seed,
-        started_at: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
-    };
-    let mut metadata = metadata.to_map();
-    metadata.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(&tactile_info).to_json());
-    metadata.insert(RECORDING_KIND_KEY.into(), "record".into());
-    metadata.extend(extra_metadata);
+    let metadata = record_metadata(spec, rig_name, &tactile_info, extra_metadata)?;
     let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
     let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
     start_recording(rgbd.as_mut(), &recorder.logger())?;

@@ -18,7 +18,11 @@
 //! and hands on; when that one is behind, pairs are dropped and counted
 //! (logged once when it starts, and in the lines [`SharedRgbd::stop`]
 //! returns), as are the frames a full marker or vision queue refuses, and
-//! the images the session's writer refuses (its `images_dropped`).
+//! the images the session's writer refuses (its `images_dropped`). The
+//! camera's threads and the thread that takes its pairs (a vision tracker)
+//! run at a lower priority (nice 9), behind the trial: on busy
+//! cores a trial's control loop must never find its tactile data stale
+//! (the protocol aborts then) because images were being encoded.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -33,6 +37,7 @@ use slidetrack_session::Logger;
 use slidetrack_vision::VisionError;
 use slidetrack_vision::input::{CameraPair, RgbdSample, RgbdSource, encode_color_jpeg};
 use slidetrack_vision::record::RgbdChannels;
+use thread_priority::{ThreadPriority, ThreadPriorityValue, set_current_thread_priority};
 
 use super::camera::{LiveCamera, StreamCounts};
 
@@ -65,6 +70,8 @@ pub struct SharedRgbd {
     tally: Arc<Tally>,
     failure: Failure,
     threads: Vec<JoinHandle<()>>,
+    /// The session it records to, once started: the counts go there at the end.
+    logger: Option<Logger>,
     /// Test hook: time the recorder spends on each pair on top of its work
     /// (a slow disk or a loaded machine).
     pub recorder_delay: Duration,
@@ -85,6 +92,8 @@ pub struct SharedFrames {
     rx: Receiver<RgbdSample>,
     intrinsics: CameraIntrinsics,
     failure: Failure,
+    /// Whether the reading thread was lowered behind the trial.
+    lowered: bool,
 }
 
 impl SharedRgbd {
@@ -103,8 +112,12 @@ impl SharedRgbd {
             device: "the [rgbd] camera (colour)".into(),
             failure: Arc::clone(&failure),
         };
-        let frames =
-            SharedFrames { rx: vision_rx, intrinsics: intrinsics.clone(), failure: Arc::clone(&failure) };
+        let frames = SharedFrames {
+            rx: vision_rx,
+            intrinsics: intrinsics.clone(),
+            failure: Arc::clone(&failure),
+            lowered: false,
+        };
         let shared = SharedRgbd {
             pending: Some(pair),
             counts,
@@ -115,6 +128,7 @@ impl SharedRgbd {
             tally: Arc::default(),
             failure,
             threads: Vec::new(),
+            logger: None,
             recorder_delay: Duration::ZERO,
             replay,
         };
@@ -132,6 +146,7 @@ impl SharedRgbd {
         let pair = self.pending.take().context("the shared RGB-D camera was started already")?;
         let (marker_tx, vision_tx) = self.senders.take().context("the shared RGB-D camera was stopped")?;
         let channels = RgbdChannels::register(logger, &self.intrinsics)?;
+        self.logger = Some(logger.clone());
         let (record_tx, record_rx) = crossbeam_channel::bounded(RECORD_QUEUE);
         let recorder = Recorder {
             logger: logger.clone(),
@@ -154,7 +169,10 @@ impl SharedRgbd {
         let spawn = |name: &str, f: Box<dyn FnOnce() + Send>| {
             std::thread::Builder::new()
                 .name(name.into())
-                .spawn(f)
+                .spawn(move || {
+                    run_behind_the_trial();
+                    f();
+                })
                 .with_context(|| format!("cannot start the RGB-D camera's {name} thread"))
         };
         self.threads.push(spawn(
@@ -185,6 +203,11 @@ impl SharedRgbd {
         self.senders = None;
         for t in self.threads.drain(..).rev() {
             t.join().map_err(|_| anyhow!("the RGB-D camera's thread panicked"))?;
+        }
+        if let Some(logger) = self.logger.take()
+            && let Err(e) = logger.metadata(RGBD_CAMERA_METADATA, self.tally.counts().to_map())
+        {
+            tracing::warn!("rgbd camera: cannot record its counts: {e}");
         }
         if let Some(e) = failed(&self.failure) {
             return Err(anyhow!("the RGB-D camera failed: {e}"));
@@ -228,6 +251,27 @@ pub struct TallyCounts {
     pub dropped_vision_behind: u64,
 }
 
+/// Name of the session's metadata record of the shared camera's counts
+/// (the fields of [`TallyCounts`], decimal).
+pub const RGBD_CAMERA_METADATA: &str = "rgbd_camera";
+
+impl TallyCounts {
+    /// The counts as a metadata record.
+    fn to_map(self) -> std::collections::BTreeMap<String, String> {
+        [
+            ("pairs_read", self.read),
+            ("pairs_recorded", self.recorded),
+            ("dropped_recorder_behind", self.dropped_recorder_behind),
+            ("dropped_writer_behind", self.dropped_writer_behind),
+            ("dropped_marker_behind", self.dropped_marker_behind),
+            ("dropped_vision_behind", self.dropped_vision_behind),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
+    }
+}
+
 impl Tally {
     fn counts(&self) -> TallyCounts {
         let get = |c: &AtomicU64| c.load(Ordering::SeqCst);
@@ -261,6 +305,19 @@ impl Tally {
         if counter.fetch_add(1, Ordering::SeqCst) == 0 {
             tracing::warn!("rgbd camera: {why}: dropping pairs (counted; see the end of the trial)");
         }
+    }
+}
+
+/// Lowers the calling thread to nice 9 (thread-priority's cross-platform
+/// 25 of 99), so that on busy cores the trial's threads come first (the
+/// scheduler's weights 1024 against 137) and the camera still gets an
+/// eighth of a contended core. A failure (no niceness per thread here) is
+/// logged and ignored.
+fn run_behind_the_trial() {
+    let priority =
+        ThreadPriorityValue::try_from(25u8).map_or(ThreadPriority::Min, ThreadPriority::Crossplatform);
+    if let Err(e) = set_current_thread_priority(priority) {
+        tracing::debug!("rgbd camera: cannot lower the priority of this thread: {e:?}");
     }
 }
 
@@ -421,8 +478,13 @@ impl RgbdSource for SharedFrames {
     }
 
     /// Blocks until the camera's thread hands on a pair; `Ok(None)` once it
-    /// stopped, its error if it failed.
+    /// stopped, its error if it failed. The first call lowers the calling
+    /// thread (the tracker's) behind the trial.
     fn next_frame(&mut self) -> Result<Option<RgbdSample>, VisionError> {
+        if !self.lowered {
+            run_behind_the_trial();
+            self.lowered = true;
+        }
         loop {
             match self.rx.recv_timeout(Duration::from_millis(100)) {
                 Ok(sample) => return Ok(Some(sample)),

@@ -6,7 +6,9 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use slidetrack_core::{DepthImage, EncodedImage, Image, PixelFormat, TimeNs};
-use slidetrack_session::{ChannelMessage, MessageReader, ReadOptions, Recorder, RecorderOptions, RgbdDepth};
+use slidetrack_session::{
+    ChannelMessage, MessageReader, ReadOptions, Recorder, RecorderOptions, RgbdDepth, SessionInfo,
+};
 use slidetrack_vision::input::{PairSettings, encode_depth_png};
 
 use super::*;
@@ -109,4 +111,9 @@ fn a_slow_recorder_drops_counted_pairs_and_never_fails_the_trial() {
         .collect();
     assert_eq!(depths.len() as u64, tally.recorded);
     assert!(depths.iter().all(|d| d.data.iter().enumerate().all(|(i, v)| *v == 500 + i as u16)));
+    // The counts are in the session too.
+    let info = SessionInfo::read(&path, ReadOptions::default()).unwrap();
+    let record = &info.metadata[RGBD_CAMERA_METADATA];
+    assert_eq!(record["pairs_recorded"], tally.recorded.to_string());
+    assert_eq!(record["dropped_recorder_behind"], tally.dropped_recorder_behind.to_string());
 }
