@@ -25,7 +25,7 @@
 //! (the protocol aborts then) because images were being encoded.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -40,6 +40,11 @@ use slidetrack_vision::record::RgbdChannels;
 use thread_priority::{ThreadPriority, ThreadPriorityValue, set_current_thread_priority};
 
 use super::camera::{LiveCamera, StreamCounts};
+
+mod tally;
+
+use tally::Tally;
+pub use tally::{RGBD_CAMERA_METADATA, TallyCounts};
 
 /// JPEG quality of the recorded colour frames.
 const JPEG_QUALITY: i32 = 90;
@@ -74,7 +79,7 @@ pub struct SharedRgbd {
     logger: Option<Logger>,
     /// Test hook: time the recorder spends on each pair on top of its work
     /// (a slow disk or a loaded machine).
-    pub recorder_delay: Duration,
+    pub(crate) recorder_delay: Duration,
     /// The recording replayed, and its offset (session minus recording time, ns).
     pub replay: Option<(PathBuf, i128)>,
 }
@@ -220,91 +225,6 @@ impl SharedRgbd {
     /// What was read, recorded and dropped so far.
     pub fn tally(&self) -> TallyCounts {
         self.tally.counts()
-    }
-}
-
-/// Counts of the shared camera, live.
-#[derive(Debug, Default)]
-struct Tally {
-    read: AtomicU64,
-    recorded: AtomicU64,
-    dropped_recorder_behind: AtomicU64,
-    dropped_writer_behind: AtomicU64,
-    dropped_marker_behind: AtomicU64,
-    dropped_vision_behind: AtomicU64,
-}
-
-/// A snapshot of [`Tally`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct TallyCounts {
-    /// Pairs read from the camera.
-    pub read: u64,
-    /// Pairs whose colour and depth the session's writer took.
-    pub recorded: u64,
-    /// Pairs dropped before encoding: the recorder was behind.
-    pub dropped_recorder_behind: u64,
-    /// Pairs the session's writer refused (in part) while it was behind.
-    pub dropped_writer_behind: u64,
-    /// Colour frames the trial's marker detection was too slow to take.
-    pub dropped_marker_behind: u64,
-    /// Pairs a live vision tracker was too slow to take.
-    pub dropped_vision_behind: u64,
-}
-
-/// Name of the session's metadata record of the shared camera's counts
-/// (the fields of [`TallyCounts`], decimal).
-pub const RGBD_CAMERA_METADATA: &str = "rgbd_camera";
-
-impl TallyCounts {
-    /// The counts as a metadata record.
-    fn to_map(self) -> std::collections::BTreeMap<String, String> {
-        [
-            ("pairs_read", self.read),
-            ("pairs_recorded", self.recorded),
-            ("dropped_recorder_behind", self.dropped_recorder_behind),
-            ("dropped_writer_behind", self.dropped_writer_behind),
-            ("dropped_marker_behind", self.dropped_marker_behind),
-            ("dropped_vision_behind", self.dropped_vision_behind),
-        ]
-        .into_iter()
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect()
-    }
-}
-
-impl Tally {
-    fn counts(&self) -> TallyCounts {
-        let get = |c: &AtomicU64| c.load(Ordering::SeqCst);
-        TallyCounts {
-            read: get(&self.read),
-            recorded: get(&self.recorded),
-            dropped_recorder_behind: get(&self.dropped_recorder_behind),
-            dropped_writer_behind: get(&self.dropped_writer_behind),
-            dropped_marker_behind: get(&self.dropped_marker_behind),
-            dropped_vision_behind: get(&self.dropped_vision_behind),
-        }
-    }
-
-    fn line(&self) -> String {
-        let c = self.counts();
-        format!(
-            "rgbd camera: {} pairs read, {} recorded; dropped: {} while the recorder was behind, {} while \
-             the session writer was behind, {} colour frames while the marker detection was behind, {} pairs \
-             while the vision tracker was behind",
-            c.read,
-            c.recorded,
-            c.dropped_recorder_behind,
-            c.dropped_writer_behind,
-            c.dropped_marker_behind,
-            c.dropped_vision_behind
-        )
-    }
-
-    /// Counts one drop in `counter`, warning the first time the camera drops.
-    fn drop_one(&self, counter: &AtomicU64, why: &str) {
-        if counter.fetch_add(1, Ordering::SeqCst) == 0 {
-            tracing::warn!("rgbd camera: {why}: dropping pairs (counted; see the end of the trial)");
-        }
     }
 }
 
