@@ -11,7 +11,7 @@
 //! # by default modules 0, 1, 2 are 4 x 4 patches on thumb, index, middle.
 //! fingers = { thumb = { sensor = "thumb", taxel = 5 }, index = { sensor = "index", taxel = 5 }, middle = { sensor = "middle" } }
 //! [hw.camera]
-//! kind = "v4l2"              # or "sim", or "none"
+//! kind = "v4l2"              # or "sim", "none", or "rgbd" (the `[rgbd]` camera, see `crate::rgbd_config`)
 //! device = "/dev/video0"
 //! [hw.hand]
 //! kind = "can"               # or "sim", or "robotiq" (see `crate::robotiq::config`)
@@ -67,6 +67,19 @@ pub enum CameraDevice {
     Sim,
     /// A V4L2 camera.
     V4l2(Box<V4l2CameraConfig>),
+    /// The RGB-D camera of the rig's `[rgbd]` table: its colour frames feed
+    /// the marker's detection too, and its colour, depth and calibration
+    /// are recorded (one camera for every use).
+    Rgbd(RgbdMarkerCamera),
+}
+
+/// `[hw.camera] kind = "rgbd"`: the `[rgbd]` camera sees the marker. Its
+/// device, intrinsics and registration are those of the `[rgbd]` table.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RgbdMarkerCamera {
+    /// Where the colour camera is in the hand frame.
+    pub placement: slidetrack_core::CameraPlacement,
 }
 
 /// The hand actuator.

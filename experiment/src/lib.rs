@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod camera_calibration;
 pub mod channels;
+pub mod collect_vision;
 pub mod dataset;
 pub mod dekf_eval;
 pub mod dekf_run;
@@ -37,6 +38,8 @@ pub mod tracked_trial;
 pub mod tracking;
 pub mod trial;
 pub mod trial_inputs;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub mod v4l2_intrinsics;
 pub mod vision;
 pub mod vision_inhand;
 pub mod vision_sim;

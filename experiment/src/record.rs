@@ -11,16 +11,18 @@
 //! opened ([`HandUse::Watch`]). A device error or the end of the duration ends
 //! the recording; the file is finished (complete and readable) on every path.
 
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use slidetrack_control::{AbortReason, ProtocolEvent, TrialObserver};
-use slidetrack_core::{DeviceError, HandMonitor, Phase, TimeNs};
+use slidetrack_core::{DeviceError, HandMonitor, Phase, TactileInfo, TimeNs};
 use slidetrack_session::{Recorder, RecorderOptions, SessionMetadata, TAXEL_LAYOUT_KEY, TaxelLayout};
 
 use crate::observer::{SessionObserver, TrialStats};
 use crate::rig::{RigSetup, TrialSpec};
+use crate::vision::shared_camera::{start_recording, stop_recording};
 
 /// Key of the session metadata that marks a recording made by `slidetrack
 /// record` (value: `record`), which has no protocol channels.
@@ -81,19 +83,13 @@ impl RecordReport {
     }
 }
 
-/// Records the devices of `setup` into `spec.path` for `duration_s` seconds
-/// of session time (until `stop` when `None`). `progress` receives the
-/// session time of every scan.
-pub fn record_devices(
-    setup: RigSetup,
+/// The metadata record of a `record` session.
+fn record_metadata(
     spec: &TrialSpec,
-    duration_s: Option<f64>,
-    stop: &AtomicBool,
-    progress: &mut dyn FnMut(TimeNs),
-) -> Result<RecordReport> {
-    let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata } = setup;
-    let mut hand_monitor = rig.hand_monitor.take();
+    rig_name: String,
+    tactile_info: &TactileInfo,
+    extra_metadata: BTreeMap<String, String>,
+) -> Result<BTreeMap<String, String>> {
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),
         rig: rig_name,
@@ -105,11 +101,29 @@ pub fn record_devices(
         started_at: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
     };
     let mut metadata = metadata.to_map();
-    metadata.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(&tactile_info).to_json());
+    metadata.insert(TAXEL_LAYOUT_KEY.into(), TaxelLayout::new(tactile_info).to_json());
     metadata.insert(RECORDING_KIND_KEY.into(), "record".into());
     metadata.extend(extra_metadata);
+    Ok(metadata)
+}
+
+/// Records the devices of `setup` into `spec.path` for `duration_s` seconds
+/// of session time (until `stop` when `None`). `progress` receives the
+/// session time of every scan.
+pub fn record_devices(
+    setup: RigSetup,
+    spec: &TrialSpec,
+    duration_s: Option<f64>,
+    stop: &AtomicBool,
+    progress: &mut dyn FnMut(TimeNs),
+) -> Result<RecordReport> {
+    let started = Instant::now();
+    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, .. } = setup;
+    let mut hand_monitor = rig.hand_monitor.take();
+    let metadata = record_metadata(spec, rig_name, &tactile_info, extra_metadata)?;
     let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
     let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
+    start_recording(rgbd.as_mut(), &recorder.logger())?;
     let with_truth = rig.truth.is_some();
     let mut observer = SessionObserver::recording(
         recorder.logger(),
@@ -160,6 +174,7 @@ pub fn record_devices(
     let _ = observer.on_event(last_scan, &ProtocolEvent { phase, message, abort: abort.clone() });
     let stats = observer.stats().clone();
     drop(observer);
+    stop_recording(rgbd);
     recorder
         .finish_with_outcome(end == RecordEnd::Duration, abort.map(|a| a.to_string()))
         .with_context(|| format!("cannot finish {}", spec.path.display()))?;

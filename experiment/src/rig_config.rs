@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use slidetrack_control::ProtocolSettings;
 use slidetrack_core::BoardLayout;
 use slidetrack_drivers::HwRigConfig;
+use slidetrack_drivers::config::CameraDevice;
 use slidetrack_drivers::rgbd_config::RgbdCameraConfig;
 use slidetrack_sim::SimRigConfig;
 use slidetrack_sim::camera::SimCameraConfig;
@@ -30,7 +31,9 @@ pub struct RigConfig {
     /// The real rig's devices (`--rig hw`); absent for the simulated rig.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hw: Option<HwRigConfig>,
-    /// The RGB-D camera of the vision trackers (`vision track --live`).
+    /// The RGB-D camera: of the vision trackers (`vision track --live`,
+    /// `track --vision`), and of the marker and the recording too with
+    /// `[hw.camera] kind = "rgbd"`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rgbd: Option<RgbdCameraConfig>,
     /// The rig's tactile force calibration file (`slidetrack calibrate
@@ -88,6 +91,9 @@ impl RigConfig {
             .with_context(|| format!("cannot read rig config {}", path.display()))?;
         let mut cfg: RigConfig =
             slidetrack_core::parse_toml(&text, &path.display().to_string()).context("invalid rig config")?;
+        if let (Some(rgbd), Some(dir)) = (cfg.rgbd.as_mut(), path.parent()) {
+            resolve_rgbd_paths(rgbd, dir);
+        }
         if let Some(cal) = cfg.tactile_calibration.as_mut().filter(|c| c.is_relative()) {
             *cal = path.parent().unwrap_or(Path::new("")).join(&cal);
         }
@@ -134,10 +140,42 @@ impl RigConfig {
         if let Some(rgbd) = &self.rgbd {
             rgbd.validate()?;
         }
+        let rgbd_marker = self.hw.as_ref().is_some_and(|hw| matches!(hw.camera, CameraDevice::Rgbd(_)));
+        anyhow::ensure!(
+            !rgbd_marker || self.rgbd.is_some(),
+            "hw.camera kind = \"rgbd\" is the camera of the [rgbd] table, and there is none \
+             (docs/examples/rgbd-rig.toml shows one)"
+        );
         if let Some(board) = &self.marker.board {
             board.validate().context("marker.board")?;
         }
         Ok(())
+    }
+}
+
+/// The `[rgbd]` table's files relative to `dir` (the rig TOML's directory)
+/// made so, wherever the camera is opened from.
+fn resolve_rgbd_paths(rgbd: &mut RgbdCameraConfig, dir: &Path) {
+    let resolve = |p: &mut Option<std::path::PathBuf>| {
+        if let Some(path) = p.as_mut().filter(|p| p.is_relative()) {
+            *path = dir.join(&*path);
+        }
+    };
+    match rgbd {
+        RgbdCameraConfig::Recording(r) => {
+            resolve(&mut r.session);
+            resolve(&mut r.directory);
+            if let Some(d) = r.depth_to_color.as_mut() {
+                resolve(&mut d.file);
+            }
+        }
+        RgbdCameraConfig::V4l2(v) => {
+            resolve(&mut v.color.calibration);
+            resolve(&mut v.depth.calibration);
+            if let Some(d) = v.depth_to_color.as_mut() {
+                resolve(&mut d.file);
+            }
+        }
     }
 }
 
@@ -203,6 +241,28 @@ mod tests {
         assert!(e.contains("sliding_axis_in_hand"), "{e}");
         let e = format!("{:#}", RigConfig::load(Some(&dir.path().join("none.toml"))).unwrap_err());
         assert!(e.contains("none.toml"), "{e}");
+    }
+
+    /// `[hw.camera] kind = "rgbd"` names the `[rgbd]` camera: without one it
+    /// is refused, naming both; with one, the stand-in's relative path is
+    /// from the rig TOML's directory, wherever the command runs.
+    #[test]
+    fn an_rgbd_marker_camera_needs_the_rgbd_table_and_its_paths_are_the_tomls() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("rig.toml");
+        let hw = "[hw]\nname = \"x\"\n[hw.tactile]\nkind = \"sim\"\n[hw.camera]\nkind = \"rgbd\"\n";
+        std::fs::write(&path, hw).unwrap();
+        let e = format!("{:#}", RigConfig::load(Some(&path)).unwrap_err());
+        assert!(e.contains("rig.toml") && e.contains("kind = \"rgbd\"") && e.contains("[rgbd]"), "{e}");
+        let rgbd = "[rgbd]\nkind = \"recording\"\nsession = \"standin.mcap\"\n";
+        std::fs::write(&path, format!("{hw}{rgbd}")).unwrap();
+        let cfg = RigConfig::load(Some(&path)).unwrap();
+        let Some(RgbdCameraConfig::Recording(r)) = &cfg.rgbd else { panic!("a recording") };
+        assert_eq!(r.session.as_deref(), Some(dir.path().join("standin.mcap").as_path()));
+        let bad = "[hw]\nname = \"x\"\n[hw.camera]\nkind = \"rgbd\"\ndevice = \"/dev/video0\"\n";
+        std::fs::write(&path, format!("{bad}{rgbd}")).unwrap();
+        let e = format!("{:#}", RigConfig::load(Some(&path)).unwrap_err());
+        assert!(e.contains("device"), "the camera's device is the [rgbd] table's: {e}");
     }
 
     #[test]

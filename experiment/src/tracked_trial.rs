@@ -204,12 +204,17 @@ fn open_rig(
         }
         _ => None,
     };
-    let setup = build_rig(kind, spec)?;
-    let camera_vision = match camera_config {
-        Some((path, vision)) => {
+    let mut setup = build_rig(kind, spec)?;
+    // The camera the rig opened shared with the marker, or the `[rgbd]` camera alone.
+    let camera_vision = match (camera_config, setup.rgbd_frames.take()) {
+        (Some((path, vision)), Some(frames)) => {
+            let replayed = setup.rgbd.as_ref().and_then(|r| r.replay.clone());
+            Some(camera_vision::open_shared(vision, spec.rig, path, frames, replayed)?)
+        }
+        (Some((path, vision)), None) => {
             Some(camera_vision::open(vision, spec.rig, path, Arc::clone(&setup.rig.clock))?)
         }
-        None => None,
+        (None, _) => None,
     };
     let rate = setup.tactile_info.rate_hz;
     let expected = model.meta.tactile_rate_hz;
@@ -311,9 +316,9 @@ fn track_on(
     let model_name = options.model.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
     let with_marker = setup.markers.is_some();
     let (camera_vision, streams) = match camera_vision {
-        Some(CameraVision { tracking, camera, streams, metadata, end }) => {
+        Some(CameraVision { tracking, camera, streams, metadata, end, records_frames }) => {
             setup.extra_metadata.extend(metadata);
-            (Some((tracking, camera, end)), streams)
+            (Some((tracking, camera, end, records_frames)), streams)
         }
         None => (None, None),
     };
@@ -327,8 +332,13 @@ fn track_on(
         if let Some(v) = vision {
             trackers = trackers.with_vision(v.with_recording(logger.clone(), record_rgbd)?);
         }
-        if let Some((tracking, camera, end)) = camera_vision {
-            trackers = trackers.with_camera_vision(tracking.recording_to(logger)?.spawn(camera), end);
+        if let Some((tracking, camera, end, records_frames)) = camera_vision {
+            let tracking = if records_frames {
+                tracking.recording_to(logger)?
+            } else {
+                tracking.recording_estimates_to(logger)?
+            };
+            trackers = trackers.with_camera_vision(tracking.spawn(camera), end);
         }
         Ok(Box::new(trackers) as Box<_>)
     });

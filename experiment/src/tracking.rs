@@ -101,6 +101,29 @@ pub struct CameraVisionSummary {
     pub error: Option<String>,
 }
 
+impl CameraVisionSummary {
+    /// Stops `thread` as `end` says and sums up what it did.
+    pub fn of(thread: LiveThread, end: VisionEnd) -> CameraVisionSummary {
+        let ended = match end {
+            VisionEnd::WithTheTrial => thread.stop(),
+            VisionEnd::WithItsFrames => thread.wait_for_end(),
+        };
+        match ended {
+            Ok((tracking, ended)) => {
+                let counts = tracking.counts();
+                CameraVisionSummary {
+                    frames: counts.frames,
+                    tracked: counts.tracked,
+                    tracker_fps: counts.tracker_fps(),
+                    measurements: tracking.measurement_summary(),
+                    error: ended.err().map(|e| e.to_string()),
+                }
+            }
+            Err(e) => CameraVisionSummary { error: Some(e.to_string()), ..CameraVisionSummary::default() },
+        }
+    }
+}
+
 /// Shortest session time between two redraws of the live line (s).
 const DRAW_PERIOD_S: f64 = 0.1;
 
@@ -262,23 +285,7 @@ impl Drop for LiveTrackers {
     /// Stops the camera's vision thread, if any, and keeps its summary.
     fn drop(&mut self) {
         let Some((thread, end)) = self.camera_vision.take() else { return };
-        let ended = match end {
-            VisionEnd::WithTheTrial => thread.stop(),
-            VisionEnd::WithItsFrames => thread.wait_for_end(),
-        };
-        let summary = match ended {
-            Ok((tracking, ended)) => {
-                let counts = tracking.counts();
-                CameraVisionSummary {
-                    frames: counts.frames,
-                    tracked: counts.tracked,
-                    tracker_fps: counts.tracker_fps(),
-                    measurements: tracking.measurement_summary(),
-                    error: ended.err().map(|e| e.to_string()),
-                }
-            }
-            Err(e) => CameraVisionSummary { error: Some(e.to_string()), ..CameraVisionSummary::default() },
-        };
+        let summary = CameraVisionSummary::of(thread, end);
         if let Ok(mut s) = self.status.lock() {
             s.camera_vision = Some(summary);
         }

@@ -13,6 +13,7 @@ use slidetrack_sim::sliding_episodes;
 
 use crate::observer::{SessionObserver, TrialExtension, TrialStats};
 use crate::rig::{RigKind, RigSetup, TrialSpec, build_rig, protocol_for};
+use crate::vision::shared_camera::{start_recording, stop_recording};
 
 /// How a trial went.
 pub struct TrialReport {
@@ -123,7 +124,7 @@ pub fn record_trial_with<'a>(
     extension: Option<ExtensionFactory<'a>>,
 ) -> Result<TrialReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, .. } = setup;
+    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, .. } = setup;
     let object = spec.object;
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),
@@ -143,6 +144,7 @@ pub fn record_trial_with<'a>(
     metadata.extend(extra_metadata);
     let force_calibration = force_calibration(spec, &tactile_info)?;
     let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
+    start_recording(rgbd.as_mut(), &recorder.logger())?;
     let with_truth = rig.truth.is_some();
     let mut observer =
         SessionObserver::new(recorder.logger(), &tactile_info, markers, with_truth, Box::new(progress))?;
@@ -156,7 +158,9 @@ pub fn record_trial_with<'a>(
     let mut protocol = protocol_for(spec.rig, object, spec.duration_s, fingers, &rig.hand.spec());
     let outcome = run_trial(&mut rig, &mut protocol, &mut observer, stop);
     let stats = observer.stats().clone();
+    // The extension's vision tracker first (it reads the camera's pairs), then the camera.
     drop(observer);
+    stop_recording(rgbd);
     let images_dropped = recorder.logger().images_dropped();
     let reason = outcome.abort.as_ref().map(|a| a.to_string());
     recorder

@@ -11,6 +11,7 @@
 
 mod channel;
 mod csv;
+pub mod depth;
 mod error;
 pub mod estimates;
 pub mod ground_truth;
@@ -36,6 +37,7 @@ mod writer_thread;
 mod tests;
 
 pub use csv::{CsvSummary, export_csv, export_csv_from_reader};
+pub use depth::{DepthCodecError, RgbdDepth};
 pub use error::{Corruption, ReplaceStep, SessionError, WriteFailure};
 pub use estimates::{
     ArucoEstimate, DERIVATIVE_CHANNELS_KEY, DekfEstimate, SlidingEstimate, TactileDerivative,
@@ -60,7 +62,7 @@ pub use stored::{AttachmentSummary, ChannelDesc, RawMessage};
 pub use summary::{ChannelSummary, SessionInfo};
 pub use vision::{ArucoDetection, CameraCalibration, CompressedImage, FoxgloveTime, Quaternion};
 pub use vision_pose::{
-    FrameTransform, ObjectTruth, PoseInFrame, RawImage, RgbdCalibration, RgbdColor, RgbdDepth, RgbdMask,
+    FrameTransform, ObjectTruth, PoseInFrame, RawImage, RgbdCalibration, RgbdColor, RgbdMask,
     VelocityEstimate, VisionMask, VisionPose,
 };
 pub use writer::{ChannelHandle, Logger, RecorderOptions, Untyped};

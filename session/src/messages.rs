@@ -21,7 +21,7 @@ pub use super::channel::{ChannelMessage, ChannelSpec, MESSAGE_ENCODING_JSON, SCH
 /// Every channel slidetrack records, in the order of `docs/session-format.md`.
 pub fn channel_specs() -> Vec<ChannelSpec> {
     use super::vision::{ArucoDetection, CameraCalibration, CompressedImage};
-    vec![
+    let mut specs = vec![
         ChannelSpec::of::<TactileRaw>(),
         ChannelSpec::of::<TactileTare>(),
         ChannelSpec::of::<TactileZeroed>(),
@@ -51,7 +51,11 @@ pub fn channel_specs() -> Vec<ChannelSpec> {
     ]
     .into_iter()
     .chain(super::vision_pose::vision_channel_specs())
-    .collect()
+    .collect::<Vec<_>>();
+    // `/rgbd/depth` after `/rgbd/color`, as in the docs.
+    let color = specs.iter().position(|s| s.topic == "/rgbd/color").map_or(specs.len(), |k| k + 1);
+    specs.insert(color, ChannelSpec::of::<super::depth::RgbdDepth>());
+    specs
 }
 
 /// Three components along the x, y and z axes of a tactile module's frame.

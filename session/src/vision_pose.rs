@@ -278,10 +278,6 @@ channel!(
     RgbdColor(CompressedImage), "/rgbd/color", "foxglove.CompressedImage", Foxglove::CompressedImage.schema()
 );
 channel!(
-    /// `/rgbd/depth`: depth frames, `16UC1` millimetres, registered to the colour.
-    RgbdDepth(RawImage), "/rgbd/depth", "foxglove.RawImage", Foxglove::RawImage.schema()
-);
-channel!(
     /// `/rgbd/calibration`: the RGB-D camera's intrinsics (no distortion).
     RgbdCalibration(CameraCalibration), "/rgbd/calibration", "foxglove.CameraCalibration",
     Foxglove::CameraCalibration.schema()
@@ -329,11 +325,11 @@ channel!(
     derived::<VelocityEstimate>("slidetrack.VelocityEstimate")
 );
 
-/// The channel specs of this module, in the order of `docs/session-format.md`.
+/// The channel specs of this module, in the order of `docs/session-format.md`
+/// (`/rgbd/depth`, of the `depth` module, comes after `/rgbd/color`).
 pub fn vision_channel_specs() -> Vec<ChannelSpec> {
     vec![
         ChannelSpec::of::<RgbdColor>(),
-        ChannelSpec::of::<RgbdDepth>(),
         ChannelSpec::of::<RgbdCalibration>(),
         ChannelSpec::of::<RgbdMask>(),
         ChannelSpec::of::<ObjectTruth>(),
@@ -356,9 +352,9 @@ mod tests {
     fn depth_and_masks_round_trip_through_raw_images() {
         let depth = DepthImage { width: 3, height: 2, data: vec![0, 1, 2, 30000, 65535, 7], scale_m: 0.0001 };
         let raw = RawImage::depth(TimeNs(5), "camera", &depth);
-        let json = serde_json::to_string(&RgbdDepth(raw.clone())).unwrap();
-        let back: RgbdDepth = serde_json::from_str(&json).unwrap();
-        let mm = back.0.to_depth().unwrap();
+        let json = serde_json::to_string(&raw).unwrap();
+        let back: RawImage = serde_json::from_str(&json).unwrap();
+        let mm = back.to_depth().unwrap();
         assert_eq!(mm.data, vec![0, 0, 0, 3000, 6554, 1]);
         let mask = RawImage::mask(TimeNs(5), "camera", 2, 2, &[0, 1, 0, 7]);
         assert_eq!(mask.to_mask().unwrap(), vec![0, 255, 0, 255]);

@@ -73,6 +73,14 @@ pub struct CollectArgs {
     /// Directory for the session files (created if missing).
     #[arg(long, default_value = "sessions")]
     pub out: PathBuf,
+    /// Also run a vision tracker on the rig's RGB-D camera, when it is the
+    /// marker camera too (`--rig hw`, `[hw.camera] kind = "rgbd"`), fed by
+    /// `--vision-measurements` (`/estimate/pose/<tracker>` and friends).
+    #[arg(long, value_enum)]
+    pub vision: Option<VisionArg>,
+    /// The vision tracker's options on the camera.
+    #[command(flatten)]
+    pub camera: CameraVisionArgs,
 }
 
 /// Arguments of `record`.
@@ -188,6 +196,15 @@ pub struct TrackArgs {
     /// colour, depth and masks (about 1 MB per frame).
     #[arg(long, requires = "vision")]
     pub record_rgbd: bool,
+    /// The vision tracker's options on a camera.
+    #[command(flatten)]
+    pub camera: CameraVisionArgs,
+}
+
+/// The options of a `--vision` tracker on a hardware rig's RGB-D camera
+/// (`track`, `collect`).
+#[derive(Debug, Args, Clone)]
+pub struct CameraVisionArgs {
     /// With `--vision` on a hardware rig: the object model the tracker fits
     /// (.obj, .ply or .xyz in metres, a simulated object's name such as
     /// `cracker_box`, or `sim` for the object of a recording standing in
@@ -252,9 +269,9 @@ impl From<CameraMeasurementsArg> for Measurements {
     }
 }
 
-impl TrackArgs {
+impl CameraVisionArgs {
     /// The options of the `--vision` tracker `kind` on a camera.
-    pub fn camera_vision_options(&self, kind: VisionArg) -> CameraVisionOptions<'_> {
+    pub fn options(&self, kind: VisionArg) -> CameraVisionOptions<'_> {
         CameraVisionOptions {
             kind: kind.into(),
             model: self.vision_model.as_deref(),

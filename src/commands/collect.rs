@@ -5,10 +5,12 @@ use std::sync::atomic::Ordering;
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_core::TimeNs;
+use slidetrack_experiment::collect_vision::{CollectedTrial, collect_trial};
 use slidetrack_experiment::live_view::LiveView;
-use slidetrack_experiment::rig::{RigKind, TrialSpec, build_rig};
-use slidetrack_experiment::trial::{TrialReport, prepare_out_dir, record_trial, session_file_name};
+use slidetrack_experiment::rig::{RigKind, TrialSpec};
+use slidetrack_experiment::trial::{TrialReport, prepare_out_dir, session_file_name};
 use slidetrack_experiment::trial_inputs::TrialInputs;
+use slidetrack_experiment::vision::TrackerKind;
 
 use crate::cli::{CollectArgs, RigArg};
 
@@ -32,6 +34,8 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
     // Before any device moves: an address that cannot serve stops here.
     let live = super::live::start(&args.run.live)?;
     let stop = super::stop_flag(super::RELEASING);
+    let vision = args.vision.map(|kind| args.camera.options(kind));
+    let config = args.run.config.as_deref().unwrap_or(std::path::Path::new("rig.toml"));
 
     let per_trial_ms = ((args.run.duration + SETUP_S) * 1e3) as u64;
     let bar = progress_bar(quiet, per_trial_ms * u64::from(args.trials));
@@ -55,9 +59,10 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
         let mut progress = |t: TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));
         };
-        let report = record_trial(build_rig(kind, &spec)?, &spec, &stop, &mut progress)?;
-        after_trial(&report, trial, &bar)?;
-        reports.push(report);
+        let collected =
+            collect_trial(kind, &spec, vision.as_ref().map(|v| (v, config)), &stop, &mut progress)?;
+        after_trial(&collected, args, trial, &bar)?;
+        reports.push(collected.report);
         if stop.load(Ordering::SeqCst) {
             bar.finish_and_clear();
             bail!("interrupted after {} trial(s); the sessions written so far are complete", reports.len());
@@ -75,6 +80,9 @@ fn rig_kind(args: &CollectArgs) -> Result<RigKind> {
     }
     if args.trials == 0 {
         bail!("--trials must be at least 1");
+    }
+    if args.vision.is_some() && args.run.config.is_none() {
+        bail!("--vision tracks the RGB-D camera of the rig TOML: give --config RIG.toml");
     }
     Ok(match args.run.rig {
         RigArg::Sim => RigKind::Sim,
@@ -98,8 +106,12 @@ fn progress_bar(quiet: bool, total_ms: u64) -> ProgressBar {
 }
 
 /// The lines of one trial; an error when a device stopped it.
-fn after_trial(report: &TrialReport, trial: u32, bar: &ProgressBar) -> Result<()> {
+fn after_trial(collected: &CollectedTrial, args: &CollectArgs, trial: u32, bar: &ProgressBar) -> Result<()> {
+    let report = &collected.report;
     bar.suspend(|| println!("{}", report.summary_line()));
+    if let (Some(summary), Some(kind)) = (&collected.vision, args.vision) {
+        bar.suspend(|| super::track::print_camera_vision(TrackerKind::from(kind), summary, None));
+    }
     if let Some(counters) = report.stats.decoder {
         bar.suspend(|| println!("  tactile decoder: {counters}"));
     }

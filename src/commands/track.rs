@@ -52,7 +52,7 @@ fn options(args: &TrackArgs) -> TrackOptions<'_> {
         realtime: args.run.realtime,
         overwrite: args.run.overwrite,
         out: args.out.clone(),
-        vision: args.vision.map(|kind| args.camera_vision_options(kind)),
+        vision: args.vision.map(|kind| args.camera.options(kind)),
         record_rgbd: args.record_rgbd,
     }
 }
@@ -92,7 +92,11 @@ fn print_summary(args: &TrackArgs, tracked: &TrackedTrial) -> Result<()> {
 
 /// The summary lines of the vision tracker on the rig's camera; why it
 /// stopped, if it stopped before the trial, on stderr.
-fn print_camera_vision(kind: TrackerKind, s: &CameraVisionSummary, streams: Option<&StreamCounts>) {
+pub(super) fn print_camera_vision(
+    kind: TrackerKind,
+    s: &CameraVisionSummary,
+    streams: Option<&StreamCounts>,
+) {
     println!(
         "  vision ({}) on the [rgbd] camera: {} of {} frames tracked, {:.0} fps (tracker only); \
          /rgbd/*, /estimate/*/{} recorded",

@@ -82,6 +82,9 @@ pub enum VisionError {
     /// Reading or writing a session failed.
     #[error(transparent)]
     Session(#[from] SessionError),
+    /// A depth frame could not be stored or read back.
+    #[error(transparent)]
+    Depth(#[from] slidetrack_session::DepthCodecError),
     /// A session lacks what a reader needs.
     #[error("{path}: {detail}")]
     BadSession {

@@ -50,6 +50,8 @@ struct Recording {
     logger: Logger,
     rgbd: RgbdChannels,
     estimates: EstimateChannels,
+    /// Record the frames too (else something else records them).
+    frames: bool,
 }
 
 /// One tracker fed by one measurement source, frame by frame.
@@ -97,6 +99,20 @@ impl LiveTracking {
             logger: logger.clone(),
             rgbd: RgbdChannels::register(logger, &self.intrinsics)?,
             estimates: EstimateChannels::register(logger, self.kind)?,
+            frames: true,
+        });
+        Ok(self)
+    }
+
+    /// Records the measurements and estimates on `logger` (`/vision/*`,
+    /// `/estimate/*/<tracker>`) but not the frames nor the calibration:
+    /// the camera, shared, records those itself.
+    pub fn recording_estimates_to(mut self, logger: &Logger) -> Result<LiveTracking, VisionError> {
+        self.recording = Some(Recording {
+            logger: logger.clone(),
+            rgbd: RgbdChannels::attach(logger)?,
+            estimates: EstimateChannels::register(logger, self.kind)?,
+            frames: false,
         });
         Ok(self)
     }
@@ -137,8 +153,10 @@ impl LiveTracking {
         let state = self.tracker.process(&sample.frame, &arrivals)?;
         self.counts.busy += started.elapsed();
         if let Some(r) = &self.recording {
-            let jpeg = encode_color_jpeg(&sample.frame.color, JPEG_QUALITY)?;
-            r.rgbd.log_frame(&r.logger, &sample.frame, &jpeg, sample.truth.as_ref(), None)?;
+            if r.frames {
+                let jpeg = encode_color_jpeg(&sample.frame.color, JPEG_QUALITY)?;
+                r.rgbd.log_frame(&r.logger, &sample.frame, &jpeg, sample.truth.as_ref(), None)?;
+            }
             // What the tracker was given, so that a replay of the session
             // (`--measurements input`) gives it the same.
             for m in &arrivals.masks {

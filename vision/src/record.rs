@@ -33,14 +33,21 @@ pub struct RgbdChannels {
 impl RgbdChannels {
     /// Registers the channels and logs the calibration at time 0.
     pub fn register(logger: &Logger, intrinsics: &CameraIntrinsics) -> Result<RgbdChannels, VisionError> {
-        let none = BTreeMap::new;
-        let calibration = logger.register::<RgbdCalibration>(none())?;
+        let calibration = logger.register::<RgbdCalibration>(BTreeMap::new())?;
         let message = RgbdCalibration(slidetrack_session::CameraCalibration::new(
             TimeNs::ZERO,
             CAMERA_FRAME,
             intrinsics,
         ));
         logger.log_json(&calibration, TimeNs::ZERO, TimeNs::ZERO, 0, &message)?;
+        RgbdChannels::attach(logger)
+    }
+
+    /// The channels of a session whose frames and calibration something
+    /// else records (the camera shared with the marker): the same
+    /// channels, no calibration logged.
+    pub fn attach(logger: &Logger) -> Result<RgbdChannels, VisionError> {
+        let none = BTreeMap::new;
         Ok(RgbdChannels {
             color: logger.register::<RgbdColor>(none())?,
             depth: logger.register::<RgbdDepth>(none())?,
@@ -69,13 +76,7 @@ impl RgbdChannels {
             seq,
             &RgbdColor(CompressedImage::new(t, CAMERA_FRAME, color_jpeg)),
         )?;
-        logger.log_json(
-            &self.depth,
-            t,
-            t,
-            seq,
-            &RgbdDepth(RawImage::depth(t, CAMERA_FRAME, &frame.depth)),
-        )?;
+        logger.log_json(&self.depth, t, t, seq, &RgbdDepth::new(t, CAMERA_FRAME, &frame.depth)?)?;
         if let Some(m) = mask {
             logger.log_json(
                 &self.mask,
@@ -89,6 +90,24 @@ impl RgbdChannels {
             logger.log_json(&self.truth, t, t, seq, &ObjectTruth::from(truth))?;
         }
         Ok(())
+    }
+
+    /// Logs the colour and depth of one pair without ever blocking (a
+    /// camera's own recording beside a trial): each is dropped, and counted
+    /// in the session's `images_dropped`, when the writer is behind. Returns
+    /// whether both were queued.
+    pub fn log_pair_lossy(
+        &self,
+        logger: &Logger,
+        frame: &RgbdFrame,
+        color_jpeg: &EncodedImage,
+    ) -> Result<bool, VisionError> {
+        let (t, seq) = (frame.t, frame.sequence as u32);
+        let color = RgbdColor(CompressedImage::new(t, CAMERA_FRAME, color_jpeg));
+        let color_queued = logger.log_json_lossy(&self.color, t, t, seq, &color)?;
+        let depth = RgbdDepth::new(t, CAMERA_FRAME, &frame.depth)?;
+        let depth_queued = logger.log_json_lossy(&self.depth, t, t, seq, &depth)?;
+        Ok(color_queued && depth_queued)
     }
 
     /// Logs a mask of the segmentation source computed on frame `frame_t`,

@@ -199,6 +199,8 @@ impl ReplaySession {
             markers,
             rig_name: "replay".into(),
             extra_metadata,
+            rgbd: None,
+            rgbd_frames: None,
         })
     }
 

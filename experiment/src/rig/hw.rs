@@ -7,12 +7,11 @@ use std::path::Path;
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
-use slidetrack_calibration::camera_info::read_camera_info;
+use nalgebra::Isometry3;
 use slidetrack_calibration::encode_jpeg;
 use slidetrack_control::Rig;
 use slidetrack_core::{
     Camera, CameraIntrinsics, Clock, HandActuator, HandMonitor, TactileSource, TruthSource, WallClock,
-    parse_toml,
 };
 use slidetrack_drivers::V4l2Camera;
 use slidetrack_drivers::can_hand::backend::CanHand;
@@ -27,6 +26,9 @@ use slidetrack_sim::{HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, 
 
 use super::trial::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
+use crate::v4l2_intrinsics::v4l2_intrinsics;
+use crate::vision::camera as rgbd_camera;
+use crate::vision::shared_camera::{SharedFrames, SharedRgbd};
 
 /// A one-line description of the devices, for the log.
 pub fn describe(hw: &HwRigConfig) -> String {
@@ -35,6 +37,7 @@ pub fn describe(hw: &HwRigConfig) -> String {
         CameraDevice::None => "none".to_string(),
         CameraDevice::Sim => "sim".to_string(),
         CameraDevice::V4l2(v) => format!("V4L2 {}", v.device),
+        CameraDevice::Rgbd(_) => "the [rgbd] camera".to_string(),
     };
     let hand = match &hw.hand {
         HandDevice::Sim => "sim".to_string(),
@@ -51,6 +54,16 @@ type Markers = Option<Box<dyn MarkerSource>>;
 enum PreparedCamera {
     Sim(Box<SimCameraRenderer>),
     V4l2(Box<V4l2CameraConfig>, CameraIntrinsics),
+    /// The `[rgbd]` camera at `hand_from_camera`: its intrinsics, and so the
+    /// marker's detection, are known once it is open.
+    Rgbd(Isometry3<f64>),
+}
+
+/// The `[rgbd]` camera shared by the marker, a vision tracker and the recording.
+struct Shared {
+    camera: SharedRgbd,
+    frames: SharedFrames,
+    markers: Box<dyn MarkerSource>,
 }
 
 /// The devices of `spec.rig.hw`, opened and started.
@@ -101,7 +114,13 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     if driver_monitor.is_some() {
         hand_monitor = driver_monitor;
     }
-    let camera = open_camera(spec, prepared, world.as_ref(), &clock)?;
+    let (camera, shared) = match prepared {
+        Some(PreparedCamera::Rgbd(hand_from_camera)) => {
+            let (color, shared) = open_shared(spec, hand_from_camera, &clock)?;
+            (Some(color), Some(shared))
+        }
+        prepared => (open_camera(spec, prepared, world.as_ref(), &clock)?, None),
+    };
     let sim_rate = spec.rig.sim.tactile_rate_hz;
     let truth =
         sim_truth.filter(|_| hw.tactile.feels_simulated_world()).map(|t| Box::new(t) as Box<dyn TruthSource>);
@@ -112,8 +131,23 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     }
     let tactile_info = tactile.info();
     let rig = Rig { tactile, hand, camera, clock, truth, hand_monitor };
-    let extra_metadata = std::collections::BTreeMap::new();
-    Ok(RigSetup { rig, tactile_info, markers, rig_name: hw.name.clone(), extra_metadata })
+    let mut setup = RigSetup {
+        rig,
+        tactile_info,
+        markers,
+        rig_name: hw.name.clone(),
+        extra_metadata: std::collections::BTreeMap::new(),
+        rgbd: None,
+        rgbd_frames: None,
+    };
+    if let Some(Shared { camera, frames, markers }) = shared {
+        if let Some((path, offset_ns)) = &camera.replay {
+            setup.extra_metadata.insert("rgbd_replay".into(), path.display().to_string());
+            setup.extra_metadata.insert("rgbd_replay_offset_ns".into(), offset_ns.to_string());
+        }
+        (setup.markers, setup.rgbd, setup.rgbd_frames) = (Some(markers), Some(camera), Some(frames));
+    }
+    Ok(setup)
 }
 
 /// A monitor of the hand's status, when its driver reads one.
@@ -212,7 +246,30 @@ fn prepare_camera(spec: &TrialSpec, camera: &CameraDevice) -> Result<(Option<Pre
             let markers = marker_tracking(spec, hand_from_camera, &intrinsics)?;
             (Some(PreparedCamera::V4l2(v.clone(), intrinsics)), Some(markers))
         }
+        (CameraDevice::Rgbd(r), true) => {
+            let hand_from_camera = r.placement.hand_from_camera().context("hw.camera.placement")?;
+            (Some(PreparedCamera::Rgbd(hand_from_camera)), None)
+        }
     })
+}
+
+/// Opens the `[rgbd]` camera on `clock`, shared: its colour frames as the
+/// trial's camera, with the marker's detection in them.
+fn open_shared(
+    spec: &TrialSpec,
+    hand_from_camera: Isometry3<f64>,
+    clock: &Arc<dyn Clock>,
+) -> Result<(Box<dyn Camera>, Shared)> {
+    use slidetrack_drivers::rgbd_config::{ReplayPace, RgbdCameraConfig};
+    let Some(cfg) = spec.rig.rgbd.as_ref() else {
+        bail!("hw.camera kind = \"rgbd\" is the camera of the [rgbd] table, and there is none");
+    };
+    // The rig TOML's relative paths were made absolute when it was loaded.
+    let live = rgbd_camera::open(cfg, Path::new("."), Arc::clone(clock)).context("the [rgbd] camera")?;
+    let every_frame = matches!(cfg, RgbdCameraConfig::Recording(r) if r.pace == ReplayPace::EveryFrame);
+    let (camera, color, frames) = SharedRgbd::new(live, every_frame);
+    let markers = marker_tracking(spec, hand_from_camera, camera.intrinsics())?;
+    Ok((Box::new(color), Shared { camera, frames, markers }))
 }
 
 /// Opens the prepared camera: the simulated one on `world`, or the V4L2 device.
@@ -239,47 +296,14 @@ fn open_camera(
         (Some(PreparedCamera::V4l2(v, intrinsics)), _) => {
             Some(Box::new(V4l2Camera::open(&v, intrinsics, Arc::clone(clock))?))
         }
+        (Some(PreparedCamera::Rgbd(_)), _) => bail!("internal: the [rgbd] camera is opened shared"),
     })
-}
-
-/// The intrinsics of a V4L2 camera: its calibration file (ROS `camera_info`
-/// or OpenCV YAML, or TOML with the fields of `intrinsics`) or the inline table.
-pub fn v4l2_intrinsics(v: &V4l2CameraConfig) -> Result<CameraIntrinsics> {
-    let intrinsics = match (&v.calibration, &v.intrinsics) {
-        (Some(path), _) => read_intrinsics(path, v.width, v.height)?,
-        (None, Some(k)) => k.clone(),
-        (None, None) => bail!("hw.camera needs `calibration` or inline `intrinsics`"),
-    };
-    if (intrinsics.width, intrinsics.height) != (v.width, v.height) {
-        bail!(
-            "the camera intrinsics are for {}x{} px but hw.camera streams {}x{} px",
-            intrinsics.width,
-            intrinsics.height,
-            v.width,
-            v.height
-        );
-    }
-    Ok(intrinsics)
-}
-
-fn read_intrinsics(path: &Path, width: u32, height: u32) -> Result<CameraIntrinsics> {
-    if path.extension().is_some_and(|e| e == "toml") {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read camera calibration {}", path.display()))?;
-        return Ok(parse_toml(&text, &path.display().to_string())?);
-    }
-    let info = read_camera_info(path)?;
-    let sized = info.has_image_size();
-    let mut intrinsics = info.intrinsics;
-    if !sized {
-        // OpenCV files may omit the size: it is the size the camera streams.
-        (intrinsics.width, intrinsics.height) = (width, height);
-    }
-    Ok(intrinsics)
 }
 
 #[cfg(test)]
 mod tests {
+    use slidetrack_core::parse_toml;
+
     use super::*;
     use crate::rig_config::RigConfig;
 

@@ -18,7 +18,9 @@ use slidetrack_core::{
 use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices};
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
-pub use hw::{describe, v4l2_intrinsics};
+pub use crate::v4l2_intrinsics::v4l2_intrinsics;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+pub use hw::describe;
 
 use crate::rig_config::RigConfig;
 use trial::sim_camera_renderer;
@@ -67,7 +69,15 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         truth: Some(Box::new(sim.truth)),
         hand_monitor,
     };
-    Ok(RigSetup { rig, tactile_info, markers, rig_name: "sim".into(), extra_metadata: BTreeMap::new() })
+    Ok(RigSetup {
+        rig,
+        tactile_info,
+        markers,
+        rig_name: "sim".into(),
+        extra_metadata: BTreeMap::new(),
+        rgbd: None,
+        rgbd_frames: None,
+    })
 }
 
 /// The protocol of a trial of `object` on `rig`, whose sliding cycles last

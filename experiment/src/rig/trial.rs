@@ -18,6 +18,7 @@ use slidetrack_sim::{ObjectConfig, Stream, stream_seed};
 
 use crate::marker::{LiveBoard, LiveMarkers, MarkerSource};
 use crate::rig_config::RigConfig;
+use crate::vision::shared_camera::{SharedFrames, SharedRgbd};
 
 /// Which rig runs a trial.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,6 +66,12 @@ pub struct RigSetup {
     pub rig_name: String,
     /// Further keys of the session's metadata record (a replay names its recording).
     pub extra_metadata: BTreeMap<String, String>,
+    /// The RGB-D camera that is also the marker camera (`[hw.camera] kind =
+    /// "rgbd"`): it records its colour, depth and calibration once started
+    /// on the session, and is stopped before the session is finished.
+    pub rgbd: Option<SharedRgbd>,
+    /// Its pairs, for a vision tracker that takes them.
+    pub rgbd_frames: Option<SharedFrames>,
 }
 
 /// Whether a rig drives its hand.

@@ -32,6 +32,12 @@ impl LiveCamera {
         self.reports.iter().map(|r| r()).collect()
     }
 
+    /// A camera of `pair` alone, with no counts of its own (tests).
+    #[cfg(test)]
+    pub(crate) fn from_pair(pair: CameraPair) -> LiveCamera {
+        LiveCamera { pair, replay: None, reports: Vec::new() }
+    }
+
     /// The pair, to hand to another thread, and the streams' counts.
     pub fn split(self) -> (CameraPair, StreamCounts) {
         (self.pair, StreamCounts(self.reports))
@@ -162,7 +168,7 @@ fn open_v4l2(
     rig_dir: &Path,
     clock: Arc<dyn Clock>,
 ) -> Result<LiveCamera> {
-    use crate::rig::v4l2_intrinsics;
+    use crate::v4l2_intrinsics::v4l2_intrinsics;
     use slidetrack_drivers::V4l2Camera;
     let node = |n: &slidetrack_drivers::config::V4l2CameraConfig,
                 field: &str|

@@ -5,7 +5,7 @@
 //! the session's time line. On a replay of such a session, the same tracker
 //! runs on its recorded frames with the masks and poses recorded beside them.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
@@ -19,6 +19,7 @@ use slidetrack_vision::{PoseReset, TrackerKind, TrackerSettings};
 
 use super::camera::{self, StreamCounts};
 use super::input::{InputOptions, check_pose_reset, load_model, own_measurements};
+use super::shared_camera::SharedFrames;
 use super::{Measurements, Metadata, TrackerStart};
 use crate::rig_config::RigConfig;
 use crate::tracking::VisionEnd;
@@ -36,6 +37,9 @@ pub struct CameraVision {
     pub metadata: Metadata,
     /// With the trial (a live camera) or at the end of the recorded frames.
     pub end: VisionEnd,
+    /// The tracker records the frames it tracks (`false`: the camera,
+    /// shared with the marker, records every frame itself).
+    pub records_frames: bool,
 }
 
 /// The options of a vision tracker on a camera.
@@ -96,6 +100,35 @@ pub fn open(
     let rig_dir = rig_path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let camera = camera::open(cfg, rig_dir, clock)?;
     let replayed = camera.replay.clone();
+    let (pair, streams) = camera.split();
+    let mut vision = on_camera(options, model_spec, Box::new(pair), replayed)?;
+    vision.streams = Some(streams);
+    Ok(vision)
+}
+
+/// The tracker of `options` on the pairs of the `[rgbd]` camera that the
+/// rig opened shared (`[hw.camera] kind = "rgbd"`): the camera records the
+/// frames, the tracker its measurements and estimates.
+pub fn open_shared(
+    options: &CameraVisionOptions<'_>,
+    rig: &RigConfig,
+    rig_path: &Path,
+    frames: SharedFrames,
+    replayed: Option<(PathBuf, i128)>,
+) -> Result<CameraVision> {
+    let (_, model_spec) = requirements(options, rig, rig_path)?;
+    let mut vision = on_camera(options, model_spec, Box::new(frames), replayed)?;
+    vision.records_frames = false;
+    Ok(vision)
+}
+
+/// The tracker of `options` on `camera`'s frames.
+fn on_camera(
+    options: &CameraVisionOptions<'_>,
+    model_spec: &str,
+    camera: Box<dyn RgbdSource + Send>,
+    replayed: Option<(PathBuf, i128)>,
+) -> Result<CameraVision> {
     let session = replayed.as_ref().map(|(p, _)| (p.as_path(), ReadOptions::default()));
     let model = load_model(model_spec, options.model_scale, session)
         .with_context(|| format!("--vision-model {model_spec}"))?;
@@ -110,7 +143,7 @@ pub fn open(
         aruco_config: options.aruco_config,
         external: Some(options.external.clone()),
     };
-    let intrinsics = camera.pair.intrinsics().clone();
+    let intrinsics = camera.intrinsics().clone();
     let source = own_measurements(&input, &model, &intrinsics)?;
     let kind = options.kind;
     let mut metadata = Metadata::from([
@@ -125,9 +158,8 @@ pub fn open(
     }
     let settings = TrackerSettings { maskukf_pose_reset: options.pose_reset, ..TrackerSettings::default() };
     let tracking = LiveTracking::new(kind, model, intrinsics, &settings, source)?;
-    let (camera, streams) = camera.split();
-    let (camera, streams) = (Box::new(camera), Some(streams));
-    Ok(CameraVision { tracking, camera, streams, metadata, end: VisionEnd::WithTheTrial })
+    let end = VisionEnd::WithTheTrial;
+    Ok(CameraVision { tracking, camera, streams: None, metadata, end, records_frames: true })
 }
 
 /// True when `session` recorded RGB-D frames (`/rgbd/color`).
@@ -161,5 +193,12 @@ pub fn open_recorded(options: &CameraVisionOptions<'_>, session: &Path) -> Resul
     let tracking = LiveTracking::new(kind, model, intrinsics, &settings, measurements)?;
     // A replay reads faster than real time: the frames are tracked to their end.
     let camera = Box::new(frames);
-    Ok(CameraVision { tracking, camera, streams: None, metadata, end: VisionEnd::WithItsFrames })
+    Ok(CameraVision {
+        tracking,
+        camera,
+        streams: None,
+        metadata,
+        end: VisionEnd::WithItsFrames,
+        records_frames: true,
+    })
 }

@@ -9,6 +9,7 @@ pub mod eval;
 pub mod input;
 pub mod live;
 pub mod offline;
+pub mod shared_camera;
 pub mod simulate;
 
 pub use slidetrack_estimators::metrics::SequenceMetrics;

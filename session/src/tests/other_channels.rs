@@ -114,7 +114,7 @@ pub(super) fn log_other_channels(rec: &Recorder) {
         let jpeg = EncodedImage { format: "jpeg".into(), bytes: vec![0xFF, 0xD8, i as u8, 0xFF, 0xD9] };
         log_one(rec, t, RgbdColor(CompressedImage::new(t, "camera", &jpeg)));
         let depth = DepthImage { width: 2, height: 2, data: vec![0, 1000, 2000, 65535], scale_m: 0.001 };
-        log_one(rec, t, RgbdDepth(RawImage::depth(t, "camera", &depth)));
+        log_one(rec, t, RgbdDepth::new(t, "camera", &depth).unwrap());
         log_one(rec, t, RgbdCalibration(CameraCalibration::new(t, "camera", &intrinsics())));
         let mask = RawImage::mask(t, "camera", 2, 2, &[0, 1, 1, 0]);
         log_one(rec, t, RgbdMask(mask.clone()));

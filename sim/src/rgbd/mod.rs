@@ -4,9 +4,11 @@
 //! Meshes and their rasterizer come from `slidetrack-render`, the frame types
 //! from `slidetrack-core`.
 //! - [`RgbdScene`]: one textured object in front of a static textured wall,
-//!   rendered with Lambert shading, colour noise, depth noise growing with
-//!   the square of the distance, depth dropouts at random, at grazing angles
-//!   and at depth edges, and depth quantised to millimetres.
+//!   rendered with Lambert shading, colour noise, and the depth of a
+//!   triangulating sensor ([`DepthNoise`]): an error growing with the square
+//!   of the distance and correlated between neighbouring pixels, disparity
+//!   steps, dropouts at random, at grazing angles and at depth edges, in
+//!   whole millimetres.
 //! - [`FastMotion`]: smooth, fast 6D trajectories like Fast-YCB's (up to about
 //!   60 cm/s and 270 deg/s) with their exact pose and velocity;
 //!   [`FastSequence`] renders them at 30 Hz.
@@ -18,6 +20,7 @@
 //! bounding box. Deterministic: the same seed gives the same frames.
 
 mod decal;
+mod depth_noise;
 mod error;
 mod inhand;
 mod motion;
@@ -28,8 +31,9 @@ mod texture;
 mod tests;
 
 pub use decal::MarkerDecal;
+pub use depth_noise::DepthNoise;
 pub use error::RgbdSimError;
 pub use inhand::InHandRgbd;
 pub use motion::{FastMotion, FastMotionConfig, FastSequence, FastSequenceConfig, SimObjectKind};
-pub use scene::{DepthNoise, RenderedRgbd, RgbdScene, RgbdSceneConfig};
+pub use scene::{RenderedRgbd, RgbdScene, RgbdSceneConfig};
 pub use texture::Texture;

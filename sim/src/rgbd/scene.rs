@@ -3,42 +3,13 @@
 //! depth sensor.
 
 use nalgebra::{Isometry3, Point3, Vector3};
-use serde::{Deserialize, Serialize};
 use slidetrack_core::{CameraIntrinsics, DepthImage, Image, PixelFormat};
 use slidetrack_render::{PixelRegion, Rasterizer, TriangleMesh, splitmix64};
 
 use super::decal::MarkerDecal;
+use super::depth_noise::{CleanDepth, DepthNoise};
 use super::error::RgbdSimError;
 use super::texture::Texture;
-
-/// The depth sensor's imperfections.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct DepthNoise {
-    /// Noise standard deviation `σ(z) = base + quadratic * (z - 0.4 m)²` (m):
-    /// the axial noise model of structured-light sensors.
-    pub base_m: f64,
-    /// See `base_m` (1/m).
-    pub quadratic_per_m: f64,
-    /// Probability that a pixel has no depth, anywhere.
-    pub dropout: f64,
-    /// Probability that a pixel on a depth edge (object border) has no depth.
-    pub edge_dropout: f64,
-    /// Surfaces seen at `|cos(angle)|` below this have no depth.
-    pub grazing_cos: f64,
-}
-
-impl Default for DepthNoise {
-    fn default() -> DepthNoise {
-        DepthNoise {
-            base_m: 0.0012,
-            quadratic_per_m: 0.0019,
-            dropout: 0.01,
-            edge_dropout: 0.5,
-            grazing_cos: 0.12,
-        }
-    }
-}
 
 /// Settings of a scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -221,15 +192,14 @@ impl RgbdScene {
             (splitmix64(self.config.seed ^ splitmix64(sequence ^ salt)) % len as u64) as usize
         };
         let color_at = offset(1, self.noise.len() - 3 * w * h);
-        let depth_at = offset(3, self.noise.len() - w * h);
+        let depth_at = offset(3, self.noise.len() - self.config.depth_noise.normals_needed(w, h));
         let uniform_at = offset(2, self.uniform.len() - w * h);
         let color = self.noisy_color(&rgb, &self.noise[color_at..color_at + 3 * w * h]);
-        let depth_noise = &self.noise[depth_at..depth_at + w * h];
-        let depth = self.noisy_depth(
-            &depth,
-            &mask,
-            &normal_cos,
-            depth_noise,
+        let clean =
+            CleanDepth { size: (w, h), fx: c.fx, depth_m: &depth, mask: &mask, normal_cos: &normal_cos };
+        let depth = self.config.depth_noise.apply(
+            &clean,
+            &self.noise[depth_at..],
             &self.uniform[uniform_at..uniform_at + w * h],
         );
         RenderedRgbd { color, depth, mask }
@@ -324,43 +294,6 @@ impl RgbdScene {
             .map(|(v, n)| (f32::from(*v) + n * std).round().clamp(0.0, 255.0) as u8)
             .collect();
         Image { width: c.width, height: c.height, format: PixelFormat::Rgb8, data }
-    }
-
-    fn noisy_depth(
-        &self,
-        depth: &[f32],
-        mask: &[u8],
-        normal_cos: &[f32],
-        noise: &[f32],
-        uniform: &[f32],
-    ) -> DepthImage {
-        let c = &self.config.intrinsics;
-        let (w, h) = (c.width as usize, c.height as usize);
-        let dn = &self.config.depth_noise;
-        let mut data = vec![0u16; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let i = y * w + x;
-                let z = f64::from(depth[i]);
-                let edge = (x > 0 && mask[i - 1] != mask[i])
-                    || (x + 1 < w && mask[i + 1] != mask[i])
-                    || (y > 0 && mask[i - w] != mask[i])
-                    || (y + 1 < h && mask[i + w] != mask[i]);
-                let p = f64::from(uniform[i]);
-                let dropped = p < dn.dropout
-                    || (edge && p < dn.dropout + dn.edge_dropout)
-                    || f64::from(normal_cos[i]) < dn.grazing_cos;
-                if dropped || !z.is_finite() {
-                    continue;
-                }
-                let sigma = dn.base_m + dn.quadratic_per_m * (z - 0.4).powi(2);
-                let mm = ((z + sigma * f64::from(noise[i])) * 1000.0).round();
-                if mm >= 1.0 && mm <= f64::from(u16::MAX) {
-                    data[i] = mm as u16;
-                }
-            }
-        }
-        DepthImage { width: c.width, height: c.height, data, scale_m: 0.001 }
     }
 }
 

@@ -87,3 +87,61 @@ fn bad_scene_settings_are_refused() {
     assert_eq!(SimObjectKind::from_name("soup_can"), Some(SimObjectKind::SoupCan));
     assert!(SimObjectKind::from_name("anvil").is_none());
 }
+
+/// `noise` applied to a flat wall at `z_m` seen by a 640x480 camera with a
+/// 554.3 px focal length: the millimetres, with standard normals and uniforms
+/// from a fixed generator.
+fn wall_depth(noise: &DepthNoise, z_m: f32) -> Vec<u16> {
+    let (w, h) = (640, 480);
+    let mut state = 7u64;
+    let mut uniform = || {
+        state = slidetrack_render::splitmix64(state);
+        ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+    };
+    let normals: Vec<f32> = (0..w * h)
+        .map(|_| (-2.0 * uniform().ln()).sqrt() * (std::f32::consts::TAU * uniform()).cos())
+        .collect();
+    let uniforms: Vec<f32> = (0..w * h).map(|_| uniform()).collect();
+    let (depth, mask, cos) = (vec![z_m; w * h], vec![0u8; w * h], vec![1.0f32; w * h]);
+    let clean =
+        depth_noise::CleanDepth { size: (w, h), fx: 554.3, depth_m: &depth, mask: &mask, normal_cos: &cos };
+    noise.apply(&clean, &normals, &uniforms).data
+}
+
+/// Correlation of horizontally neighbouring errors and the RMS error (mm).
+fn neighbour_correlation_and_rms(mm: &[u16], z_mm: f64) -> (f64, f64) {
+    let e: Vec<f64> = mm.iter().map(|v| f64::from(*v) - z_mm).collect();
+    let pairs: Vec<(f64, f64)> = e.chunks(640).flat_map(|row| row.windows(2).map(|p| (p[0], p[1]))).collect();
+    let var = e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64;
+    let cov = pairs.iter().map(|(a, b)| a * b).sum::<f64>() / pairs.len() as f64;
+    (cov / var, var.sqrt())
+}
+
+#[test]
+fn simulated_depth_is_quantised_in_disparity_and_correlated_between_neighbours() {
+    let noise = DepthNoise { dropout: 0.0, ..DepthNoise::default() };
+    let mm = wall_depth(&noise, 1.3);
+    assert!(mm.iter().all(|v| *v > 0), "no dropouts asked for");
+    // Every value is a disparity step f b / (k step), rounded to millimetres.
+    let fb = 554.3 * noise.baseline_m;
+    for v in &mm {
+        let k = (fb / (f64::from(*v) / 1000.0) / noise.disparity_step_px).round();
+        let level = (fb / (k * noise.disparity_step_px) * 1000.0).round();
+        assert_eq!(f64::from(*v), level, "{v} mm is not a disparity level");
+    }
+    let levels: std::collections::BTreeSet<u16> = mm.iter().copied().collect();
+    assert!(levels.len() < 12, "{levels:?}");
+    // The spread is the measured axial noise at 1.3 m (2.7 mm) plus the
+    // steps' rounding (4.9 mm apart: 1.4 mm RMS), and neighbours share it.
+    let (rho, rms) = neighbour_correlation_and_rms(&mm, 1300.0);
+    let expected = (2.74f64.powi(2) + 4.9f64.powi(2) / 12.0).sqrt();
+    assert!((rms - expected).abs() < 0.35, "RMS {rms} mm vs {expected}");
+    assert!(rho > 0.6, "neighbour correlation {rho}");
+
+    // The earlier model: independent per pixel, every millimetre possible.
+    let independent = DepthNoise { correlation_px: 1, disparity_step_px: 0.0, ..noise };
+    let mm = wall_depth(&independent, 1.3);
+    let (rho, rms) = neighbour_correlation_and_rms(&mm, 1300.0);
+    assert!(rho.abs() < 0.02, "neighbour correlation {rho}");
+    assert!((rms - 2.74).abs() < 0.1, "RMS {rms} mm");
+}

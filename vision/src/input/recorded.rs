@@ -26,7 +26,6 @@ use slidetrack_session::{
     ChannelMessage, MessageReader, ReadOptions, RgbdCalibration, RgbdColor, RgbdDepth, read_channel,
 };
 
-use super::codec::encode_depth_png;
 use crate::VisionError;
 
 /// Frames a replayed camera holds for a slow reader; older ones are lost.
@@ -119,8 +118,8 @@ impl RecordedRgbd {
         })?;
         let depths = session_stream(path, RgbdDepth::TOPIC, |data| {
             let m: RgbdDepth = serde_json::from_slice(data).map_err(|e| e.to_string())?;
-            let depth = m.0.to_depth().ok_or("a /rgbd/depth message is not 16UC1")?;
-            encode_depth_png(&depth).map_err(|e| e.to_string())
+            // The stored PNG as it is (a session of the old raw form: encoded).
+            m.to_png().map_err(|e| e.to_string())
         })?;
         let name = path.display().to_string();
         Self::start(&name, colors, depths, color_intrinsics, clock, options)

@@ -102,8 +102,7 @@ impl RgbdSource for SessionRgbd {
                 continue;
             };
             let color = decode_color(&color.0.data)?;
-            let depth =
-                depth.0.to_depth().ok_or_else(|| self.bad("a /rgbd/depth message is not 16UC1".into()))?;
+            let depth = depth.to_depth().map_err(|e| self.bad(e.to_string()))?;
             if (color.width, color.height) != (depth.width, depth.height)
                 || (depth.width, depth.height) != (self.intrinsics.width, self.intrinsics.height)
             {
