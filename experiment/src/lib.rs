@@ -15,6 +15,7 @@ pub mod emulate;
 pub mod grasp_eval;
 pub mod grasp_state;
 pub mod hand_calibration;
+pub mod hand_calibration_session;
 pub mod hand_target;
 pub mod image_markers;
 pub mod import;

@@ -37,15 +37,21 @@ pub enum HandRigArg {
 /// Arguments of `calibrate hand`.
 #[derive(Debug, Args)]
 pub struct CalibrateHandArgs {
-    /// The rig whose camera sees the hand's target.
+    /// The rig whose camera sees the hand's target (without --session).
     #[arg(long, value_enum, default_value_t = HandRigArg::Sim)]
     pub rig: HandRigArg,
+    /// Take the frames from this recorded session (MCAP) instead: its
+    /// /camera/image (else /rgbd/color) frames, with its camera calibration
+    /// (else the rig config's camera).
+    #[arg(long, conflicts_with_all = ["rig", "seed"])]
+    pub session: Option<PathBuf>,
     /// Rig configuration (TOML) with [camera] and [hand_target].
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Frames to take.
-    #[arg(long, default_value_t = 30)]
-    pub frames: usize,
+    /// Frames to take: rendered by the simulated camera (default 30), or at
+    /// most this many of the session's, evenly spread (default all).
+    #[arg(long)]
+    pub frames: Option<usize>,
     /// Seed of the simulated camera's noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

@@ -8,6 +8,7 @@ use slidetrack_experiment::camera_calibration::{
 };
 
 use slidetrack_experiment::hand_calibration::{HandCalibrationOptions, calibrate_hand_sim};
+use slidetrack_experiment::hand_calibration_session::calibrate_hand_session;
 
 use crate::cli::{
     CalibrateArgs, CalibrateCameraArgs, CalibrateCommand, CalibrateHandArgs, CalibrationFormatArg,
@@ -28,13 +29,22 @@ fn hand(args: &CalibrateHandArgs) -> Result<()> {
         seed: args.seed,
         out: args.out.clone(),
     };
-    let run = calibrate_hand_sim(&options)?;
+    let run = match &args.session {
+        Some(session) => {
+            calibrate_hand_session(session, args.config.as_deref(), args.frames, args.out.as_deref())?
+        }
+        None => calibrate_hand_sim(&options)?,
+    };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&run)?);
         return Ok(());
     }
     let c = &run.calibration;
     println!("{}", run.placement_toml);
+    println!(
+        "frames: {} ({} looked at, target seen in {}); intrinsics: {}",
+        run.frames_from, run.frames_read, run.frames_with_target, run.intrinsics_from
+    );
     println!(
         "frames used {} (rejected: {} reprojection, {} outliers); standard error {:.3} mm, {:.4} deg; per-frame spread {:.3} mm, {:.4} deg",
         c.frames_used,
