@@ -57,7 +57,7 @@ const RECORDING_INTRINSICS: &str = "intrinsics = { width = 640, height = 480, fx
 /// The hand target alone: a calibration from this config knows neither the
 /// camera's placement nor its intrinsics.
 fn target_only() -> String {
-    RIG[RIG.find("[hand_target]").unwrap()..].to_string()
+    RIG[RIG.find("[hand_target]").expect("RIG has [hand_target]")..].to_string()
 }
 
 /// The recording rig: RIG (its non-default placement and its hand target)
@@ -70,19 +70,20 @@ fn recording_rig() -> String {
 /// returns the session and the camera's true placement.
 fn record(dir: &Path, name: &str, frames: usize, with_calibration: bool) -> (PathBuf, Isometry3<f64>) {
     let config = dir.join("recording_rig.toml");
-    std::fs::write(&config, recording_rig()).unwrap();
+    std::fs::write(&config, recording_rig()).expect("write the recording rig");
     let out = dir.join(format!("{name}.mcap"));
     let options =
         HandTargetRecording { config: Some(config), frames, seed: 3, with_calibration, out: out.clone() };
-    let truth = record_hand_target_session(&options).unwrap();
+    let truth = record_hand_target_session(&options).expect("record the hand target session");
     (out, truth)
 }
 
 /// Error (mm, degrees) of the JSON result's placement against `truth`.
 fn error_of(out: &Value, truth: &Isometry3<f64>) -> (f64, f64) {
     let c = &out["calibration"];
-    let v =
-        |key: &str| -> Vec<f64> { c[key].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+    let v = |key: &str| -> Vec<f64> {
+        c[key].as_array().expect("an array").iter().map(|x| x.as_f64().expect("a number")).collect()
+    };
     let (t, q) = (v("translation_m"), v("quaternion_xyzw"));
     let estimate = Isometry3::from_parts(
         Translation3::from(Vector3::new(t[0], t[1], t[2])),
