@@ -37,12 +37,7 @@ fn calibrate_hand_on_the_simulated_rig_recovers_the_placement_within_2_mm_and_ha
     println!("calibrate hand (sim, CLI): error {mm:.3} mm, {deg:.4} deg; {}", out["calibration"]);
     assert!(mm < 2.0 && deg < 0.5, "{mm} mm, {deg} deg");
     assert!(out["calibration"]["frames_used"].as_u64().unwrap() >= 15, "{out}");
-    let text = ok(&[&args[..], &["--frames", "5", "--out", out_file.to_str().unwrap()]].concat());
-    assert!(text.contains("placement = { kind = \"pose\""), "{text}");
-    // The written file is a valid rig config whose [camera] holds the placement.
-    let written = std::fs::read_to_string(&out_file).unwrap();
-    let back: toml::Value = toml::from_str(&written).unwrap();
-    assert_eq!(back["camera"]["placement"]["kind"].as_str(), Some("pose"), "{written}");
+    writes_the_placement(&args, &out_file);
 }
 
 #[test]
@@ -93,6 +88,24 @@ fn error_of(out: &Value, truth: &Isometry3<f64>) -> (f64, f64) {
     (mm, estimate.rotation.angle_to(&truth.rotation).to_degrees())
 }
 
+/// `calibrate hand --session SESSION --config CONFIG`.
+fn session_args(session: &Path, config: &Path) -> Vec<String> {
+    let (s, c) = (session.to_str().expect("a UTF-8 path"), config.to_str().expect("a UTF-8 path"));
+    ["-q", "calibrate", "hand", "--session", s, "--config", c].map(String::from).to_vec()
+}
+
+/// Runs `args` with `--frames 5 --out OUT_FILE` and checks the printed line
+/// and the written file, a rig config whose `[camera]` holds the placement;
+/// returns what was printed.
+fn writes_the_placement(args: &[&str], out_file: &Path) -> String {
+    let text = ok(&[args, &["--frames", "5", "--out", out_file.to_str().expect("a UTF-8 path")]].concat());
+    assert!(text.contains("placement = { kind = \"pose\""), "{text}");
+    let written = std::fs::read_to_string(out_file).expect("the --out file");
+    let back: toml::Value = toml::from_str(&written).expect("the --out file is TOML");
+    assert_eq!(back["camera"]["placement"]["kind"].as_str(), Some("pose"), "{written}");
+    text
+}
+
 #[test]
 fn calibrate_hand_from_a_recorded_session_recovers_the_placement_within_2_mm_and_half_a_degree() {
     let dir = tempdir();
@@ -102,15 +115,8 @@ fn calibrate_hand_from_a_recorded_session_recovers_the_placement_within_2_mm_and
     assert!((truth.translation.vector - default.translation.vector).norm() > 0.01);
     let rig = dir.path().join("target.toml");
     std::fs::write(&rig, target_only()).unwrap();
-    let args = [
-        "-q",
-        "calibrate",
-        "hand",
-        "--session",
-        session.to_str().unwrap(),
-        "--config",
-        rig.to_str().unwrap(),
-    ];
+    let args = session_args(&session, &rig);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let out: Value = serde_json::from_str(&ok(&[&args[..], &["--frames", "20", "--json"]].concat())).unwrap();
     let (mm, deg) = error_of(&out, &truth);
     println!("calibrate hand (session, CLI): error {mm:.3} mm, {deg:.4} deg; {}", out["calibration"]);
@@ -119,13 +125,8 @@ fn calibrate_hand_from_a_recorded_session_recovers_the_placement_within_2_mm_and
     assert!(out["calibration"]["frames_used"].as_u64().unwrap() >= 15, "{out}");
     assert!(out["intrinsics_from"].as_str().unwrap().contains("/camera/calibration"), "{out}");
     assert!(out["sim_error_mm_deg"].is_null(), "a session has no known truth: {out}");
-    let out_file = dir.path().join("hand.toml");
-    let text = ok(&[&args[..], &["--frames", "5", "--out", out_file.to_str().unwrap()]].concat());
-    assert!(text.contains("placement = { kind = \"pose\""), "{text}");
+    let text = writes_the_placement(&args, &dir.path().join("hand.toml"));
     assert!(text.contains("intrinsics: the session's /camera/calibration"), "{text}");
-    let written = std::fs::read_to_string(&out_file).unwrap();
-    let back: toml::Value = toml::from_str(&written).unwrap();
-    assert_eq!(back["camera"]["placement"]["kind"].as_str(), Some("pose"), "{written}");
 }
 
 #[test]
@@ -133,15 +134,8 @@ fn calibrate_hand_from_a_session_without_calibration_takes_the_rig_configs_intri
     let dir = tempdir();
     let (session, truth) = record(dir.path(), "uncalibrated", 8, false);
     let rig = dir.path().join("recording_rig.toml");
-    let args = [
-        "-q",
-        "calibrate",
-        "hand",
-        "--session",
-        session.to_str().unwrap(),
-        "--config",
-        rig.to_str().unwrap(),
-    ];
+    let args = session_args(&session, &rig);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let out: Value = serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
     assert!(out["intrinsics_from"].as_str().unwrap().contains("[camera]"), "{out}");
     assert_eq!(out["frames_read"].as_u64(), Some(8), "every frame by default: {out}");
@@ -154,15 +148,8 @@ fn calibrate_hand_from_a_session_without_colour_frames_says_so() {
     let dir = tempdir();
     let (session, _) = record(dir.path(), "no_frames", 0, true);
     let rig = dir.path().join("recording_rig.toml");
-    let err = fails(&[
-        "-q",
-        "calibrate",
-        "hand",
-        "--session",
-        session.to_str().unwrap(),
-        "--config",
-        rig.to_str().unwrap(),
-    ]);
+    let args = session_args(&session, &rig);
+    let err = fails(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(err.contains("no_frames.mcap") && err.contains("no colour frames"), "{err}");
 }
 
@@ -172,15 +159,8 @@ fn calibrate_hand_from_a_session_where_the_target_is_never_seen_says_so() {
     let (session, _) = record(dir.path(), "other_marker", 4, true);
     let rig = dir.path().join("other.toml");
     std::fs::write(&rig, target_only().replace("id = 11", "id = 12")).unwrap();
-    let err = fails(&[
-        "-q",
-        "calibrate",
-        "hand",
-        "--session",
-        session.to_str().unwrap(),
-        "--config",
-        rig.to_str().unwrap(),
-    ]);
+    let args = session_args(&session, &rig);
+    let err = fails(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(
         err.contains("other_marker.mcap") && err.contains("marker 12") && err.contains("seen in none"),
         "{err}"
