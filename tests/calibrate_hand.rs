@@ -67,8 +67,14 @@ fn record(dir: &Path, name: &str, frames: usize, with_calibration: bool) -> (Pat
     let config = dir.join("recording_rig.toml");
     std::fs::write(&config, recording_rig()).expect("write the recording rig");
     let out = dir.join(format!("{name}.mcap"));
-    let options =
-        HandTargetRecording { config: Some(config), frames, seed: 3, with_calibration, out: out.clone() };
+    let options = HandTargetRecording {
+        config: Some(config),
+        frames,
+        seed: 3,
+        with_calibration,
+        rgbd: false,
+        out: out.clone(),
+    };
     let truth = record_hand_target_session(&options).expect("record the hand target session");
     (out, truth)
 }
@@ -164,5 +170,98 @@ fn calibrate_hand_from_a_session_where_the_target_is_never_seen_says_so() {
     assert!(
         err.contains("other_marker.mcap") && err.contains("marker 12") && err.contains("seen in none"),
         "{err}"
+    );
+}
+
+/// RIG with a GridBoard (3 x 2 markers of 30 mm, 6 mm apart) as the hand's
+/// target instead of the single marker, at the same mount pose.
+fn board_rig() -> String {
+    RIG.replace(
+        "id = 11\nmarker_size_m = 0.05\n",
+        "board = { kind = \"grid\", markers_x = 3, markers_y = 2, marker_length_m = 0.03, separation_m = 0.006 }\n",
+    )
+}
+
+#[test]
+fn calibrate_hand_with_a_board_as_the_target_recovers_the_placement_within_2_mm_and_half_a_degree() {
+    let dir = tempdir();
+    let rig = dir.path().join("board_rig.toml");
+    std::fs::write(&rig, board_rig()).unwrap();
+    assert!(board_rig().contains("kind = \"grid\"") && !board_rig().contains("id = 11"));
+    // Rendered by the simulated camera.
+    let args = ["-q", "calibrate", "hand", "--rig", "sim", "--config", rig.to_str().unwrap()];
+    let out: Value = serde_json::from_str(&ok(&[&args[..], &["--frames", "20", "--json"]].concat())).unwrap();
+    let err = &out["sim_error_mm_deg"];
+    let (mm, deg) = (err[0].as_f64().unwrap(), err[1].as_f64().unwrap());
+    println!("calibrate hand (sim, GridBoard): error {mm:.3} mm, {deg:.4} deg; {}", out["calibration"]);
+    assert!(mm < 2.0 && deg < 0.5, "{mm} mm, {deg} deg");
+    assert!(out["calibration"]["frames_used"].as_u64().unwrap() >= 15, "{out}");
+    // From a recorded session of the board.
+    let config = dir.path().join("recording_rig.toml");
+    std::fs::write(
+        &config,
+        board_rig().replacen("[camera]\n", &format!("[camera]\n{RECORDING_INTRINSICS}\n"), 1),
+    )
+    .unwrap();
+    let session = dir.path().join("board.mcap");
+    let options = HandTargetRecording {
+        config: Some(config.clone()),
+        frames: 20,
+        seed: 3,
+        with_calibration: true,
+        rgbd: false,
+        out: session.clone(),
+    };
+    let truth = record_hand_target_session(&options).expect("record the board session");
+    let args = session_args(&session, &config);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out: Value = serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap();
+    let (mm, deg) = error_of(&out, &truth);
+    println!("calibrate hand (session, GridBoard): error {mm:.3} mm, {deg:.4} deg");
+    assert!(mm < 2.0 && deg < 0.5, "{mm} mm, {deg} deg");
+}
+
+#[test]
+fn calibrate_hand_from_an_rgbd_cameras_colour_stream_equals_the_camera_image_path() {
+    let dir = tempdir();
+    let config = dir.path().join("recording_rig.toml");
+    std::fs::write(&config, recording_rig()).unwrap();
+    // The same frames and intrinsics, once as /camera/image, once as an
+    // RGB-D camera's /rgbd/color with /rgbd/calibration.
+    let recording = |rgbd: bool, name: &str| {
+        let out = dir.path().join(name);
+        let options = HandTargetRecording {
+            config: Some(config.clone()),
+            frames: 20,
+            seed: 3,
+            with_calibration: true,
+            rgbd,
+            out: out.clone(),
+        };
+        (out, record_hand_target_session(&options).expect("record the hand target session"))
+    };
+    let (image, truth) = recording(false, "image.mcap");
+    let (rgbd, _) = recording(true, "rgbd.mcap");
+    let info =
+        slidetrack_session::SessionInfo::read(&rgbd, slidetrack_session::ReadOptions::default()).unwrap();
+    assert!(info.channel("/camera/image").is_none() && info.channel("/rgbd/color").is_some());
+    // A config without the recording camera's intrinsics: reading the
+    // wrong calibration channel would fall back to the default ones.
+    let target = dir.path().join("target.toml");
+    std::fs::write(&target, target_only()).unwrap();
+    let calibrate = |session: &Path| -> Value {
+        let args = session_args(session, &target);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        serde_json::from_str(&ok(&[&args[..], &["--json"]].concat())).unwrap()
+    };
+    let (from_image, from_rgbd) = (calibrate(&image), calibrate(&rgbd));
+    assert!(from_rgbd["frames_from"].as_str().unwrap().ends_with("/rgbd/color"), "{from_rgbd}");
+    assert!(from_rgbd["intrinsics_from"].as_str().unwrap().contains("/rgbd/calibration"), "{from_rgbd}");
+    let (mm, deg) = error_of(&from_rgbd, &truth);
+    println!("calibrate hand (session, /rgbd/color): error {mm:.3} mm, {deg:.4} deg");
+    assert!(mm < 2.0 && deg < 0.5, "{mm} mm, {deg} deg");
+    assert_eq!(
+        from_rgbd["calibration"], from_image["calibration"],
+        "the same frames give the same calibration"
     );
 }

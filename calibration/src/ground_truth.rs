@@ -149,6 +149,37 @@ pub fn marker_positions(
             )
         }
     };
+    measurements_from(raw, frames, axis_in_camera, description)
+}
+
+/// The marker positions along `axis` (its camera placement and direction in
+/// the hand frame, e.g. from a hand calibration and the hand's geometry):
+/// `position_in_camera_m` moved into the hand frame and projected on the
+/// axis; `description` says where the axis came from.
+pub fn marker_positions_on_axis(
+    detections: &[(TimeNs, ArucoDetection)],
+    axis: &SlidingAxis,
+    description: String,
+) -> Result<Measurements, GroundTruthError> {
+    let raw = detections
+        .iter()
+        .filter_map(|(t, d)| {
+            let p = d.position_in_camera_m?;
+            p.iter().all(|v| v.is_finite()).then(|| (*t, axis.along_axis_m(&Point3::from(p))))
+        })
+        .collect();
+    let direction = axis.hand_from_camera.rotation.inverse() * axis.axis_in_hand.into_inner();
+    measurements_from(raw, detections.len(), Some(direction), description)
+}
+
+/// The measurements of `raw` positions along an axis: 0 at the first, times
+/// strictly increasing (a repeated time keeps its first position).
+fn measurements_from(
+    raw: Vec<(TimeNs, f64)>,
+    frames: usize,
+    axis_in_camera: Option<Vector3<f64>>,
+    description: String,
+) -> Result<Measurements, GroundTruthError> {
     let Some(&(_, origin)) = raw.first() else { return Err(GroundTruthError::NoDetections { frames }) };
     let mut positions: Vec<(TimeNs, f64)> = Vec::with_capacity(raw.len());
     for (t, p) in raw {

@@ -18,10 +18,11 @@ use slidetrack_session::{
 use thiserror::Error;
 
 use crate::ground_truth::{
-    AxisSource, GroundTruth, GroundTruthError, Measurements, Rmse, marker_positions, parameters_record,
-    rmse_against_truth, smooth_ground_truth,
+    AxisSource, GroundTruth, GroundTruthError, Measurements, Rmse, marker_positions,
+    marker_positions_on_axis, parameters_record, rmse_against_truth, smooth_ground_truth,
 };
-use crate::in_hand::session::{in_hand_channels, label_in_hand};
+use crate::hand_frame::{HandCalibrationFile, HandFrame};
+use crate::in_hand::session::{InHandLabel, in_hand_channels, label_in_hand};
 use crate::in_hand::{ContactFrame, InHandOptions, PoseParamsRecord};
 pub use crate::session_inputs::{SessionInputs, read_inputs};
 
@@ -30,8 +31,13 @@ pub use crate::session_inputs::{SessionInputs, read_inputs};
 pub struct LabelOptions {
     /// The smoother's parameters.
     pub params: CvParams,
-    /// Where the positions along the axis come from.
+    /// Where the positions along the axis come from (without `hand`).
     pub axis: AxisSource,
+    /// A hand calibration: the marker's positions and poses are moved into
+    /// the hand frame with its camera pose, the sliding axis and the contact
+    /// frame come from the hand's geometry ([`crate::hand_frame`]), and
+    /// `axis` is not used.
+    pub hand: Option<HandCalibrationFile>,
     /// Label a truncated file (its complete chunks; the rewritten file is complete).
     pub recover: bool,
     /// Compute and report, but do not write the file.
@@ -145,6 +151,10 @@ pub struct LabelReport {
     pub log_likelihood: f64,
     /// The motion in the hand, when it was labelled.
     pub in_hand: Option<InHandSummary>,
+    /// The hand frame used, with a hand calibration.
+    pub hand_frame: Option<HandFrame>,
+    /// Where the positions along the sliding axis came from, in words.
+    pub axis_from: String,
 }
 
 /// What the in-hand labelling of a session found.
@@ -229,7 +239,24 @@ fn marker_measurements(
     options: &LabelOptions,
 ) -> Result<Option<Measurements>, GroundTruthError> {
     let Some(detections) = &inputs.detections else { return Ok(None) };
-    marker_positions(detections, options.axis, inputs.rig_config.as_deref()).map(Some)
+    match hand_frame(inputs, options)? {
+        Some(frame) => {
+            marker_positions_on_axis(detections, &frame.sliding_axis(), frame.axis_source()).map(Some)
+        }
+        None => marker_positions(detections, options.axis, inputs.rig_config.as_deref()).map(Some),
+    }
+}
+
+/// The hand frame of `inputs` with `options.hand` (its geometry may come
+/// from the session's rig configuration), `None` without a hand calibration.
+pub fn hand_frame(
+    inputs: &SessionInputs,
+    options: &LabelOptions,
+) -> Result<Option<HandFrame>, GroundTruthError> {
+    let Some(file) = &options.hand else { return Ok(None) };
+    file.hand_frame(inputs.rig_config.as_deref())
+        .map(Some)
+        .map_err(|e| GroundTruthError::RigConfig { detail: e.to_string() })
 }
 
 /// The ground truth of `inputs`, and the parameters it was smoothed with
@@ -320,6 +347,19 @@ fn tuning_record(options: &LabelOptions, tuned: Option<&TunedNoise>, report: &La
     }
 }
 
+/// The motion in the hand of `inputs` when `options` ask for it (default
+/// slot only), in the hand frame of `hand` when given (its camera pose and
+/// contact frame).
+fn in_hand_of(
+    inputs: &SessionInputs,
+    options: &LabelOptions,
+    hand: Option<&HandFrame>,
+) -> Result<Option<InHandLabel>, GroundTruthError> {
+    let (Some(o), GroundTruthSlot::Default) = (&options.in_hand, options.slot) else { return Ok(None) };
+    let o = hand.map_or_else(|| o.clone(), |frame| frame.in_hand_options(o));
+    Ok(label_in_hand(inputs, &o, options.tuning == Tuning::PerSession)?)
+}
+
 /// Labels the session at `path`: see the module documentation.
 pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport, LabelError> {
     let read = ReadOptions { recover: options.recover };
@@ -351,14 +391,10 @@ pub fn label_session(path: &Path, options: &LabelOptions) -> Result<LabelReport,
         tuned: options.tuning != Tuning::Off,
         log_likelihood: fit.log_likelihood,
         in_hand: None,
+        hand_frame: hand_frame(&inputs, options).map_err(gt_err)?,
+        axis_from: measurements.source.clone(),
     };
-    let in_hand = match (&options.in_hand, options.slot) {
-        (Some(o), GroundTruthSlot::Default) => {
-            label_in_hand(&inputs, o, options.tuning == Tuning::PerSession)
-                .map_err(|e| gt_err(GroundTruthError::from(e)))?
-        }
-        _ => None,
-    };
+    let in_hand = in_hand_of(&inputs, options, report.hand_frame.as_ref()).map_err(gt_err)?;
     report.in_hand = in_hand.as_ref().map(|l| InHandSummary {
         poses: l.session.track.scans.len(),
         measured: l.session.track.measured,

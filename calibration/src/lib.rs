@@ -12,6 +12,7 @@ pub mod error;
 pub mod ground_truth;
 pub mod hand_eye;
 pub mod hand_eye_error;
+pub mod hand_frame;
 pub mod in_hand;
 pub mod label;
 pub mod marker_tool;

@@ -14,10 +14,10 @@ use serde::Serialize;
 use slidetrack_calibration::hand_eye::{
     HandCalibration, HandEyeOptions, TargetView, estimate_hand_from_camera, pose_difference,
 };
-use slidetrack_calibration::{Dictionary, MarkerTracker, marker_pattern, marker_pose};
-use slidetrack_sim::camera::{ObjectAppearance, SimCameraRenderer};
+use slidetrack_calibration::{Dictionary, board_patterns, marker_pattern};
+use slidetrack_sim::camera::{BoardPrint, ObjectAppearance, SimCameraRenderer};
 
-use crate::hand_target::HandTargetConfig;
+use crate::hand_target::{HandTargetConfig, TargetFinder};
 use crate::rig_config::RigConfig;
 
 /// What `calibrate hand` reads.
@@ -50,7 +50,7 @@ pub struct HandCalibrationRun {
     pub intrinsics_from: String,
     /// Frames looked at.
     pub frames_read: usize,
-    /// Frames in which the target's marker was found.
+    /// Frames in which the target (its marker, or a board's pose) was found.
     pub frames_with_target: usize,
 }
 
@@ -64,18 +64,12 @@ pub fn calibrate_hand_sim(options: &HandCalibrationOptions) -> Result<HandCalibr
     let target = hand_target(&rig)?;
     let hand_from_target = target.hand_from_target.isometry()?;
     let (mut renderer, hand_from_plate) = target_renderer(&rig, &target, &hand_from_target, options.seed)?;
-    let mut tracker = MarkerTracker::new(Dictionary::from_name(&target.dictionary)?, target.id)?;
+    let mut finder = TargetFinder::new(&target)?;
     let frames = options.frames.unwrap_or(DEFAULT_SIM_FRAMES);
     let mut views = Vec::with_capacity(frames);
     for k in 0..frames as u64 {
         let image = renderer.render_image(&hand_from_plate, k);
-        tracker.reset();
-        let Some(d) = tracker.detect(&image)? else { continue };
-        let p = marker_pose(&d, renderer.intrinsics(), target.marker_size_m)?;
-        views.push(TargetView {
-            camera_from_target: p.camera_from_marker,
-            reprojection_error_px: p.reprojection_error_px,
-        });
+        views.extend(finder.view(&image, renderer.intrinsics())?);
     }
     let truth = *renderer.hand_from_camera();
     let sources = Sources {
@@ -122,28 +116,49 @@ pub(crate) fn finish(
 /// The rig's `[hand_target]`, or the error saying it has none.
 pub(crate) fn hand_target(rig: &RigConfig) -> Result<HandTargetConfig> {
     rig.hand_target.clone().context(
-        "the rig config has no [hand_target] (dictionary, id, marker_size_m, hand_from_target): nothing to calibrate against",
+        "the rig config has no [hand_target] (dictionary, id, marker_size_m or board, hand_from_target): nothing to calibrate against",
     )
 }
 
-/// The simulated camera with the hand's marker printed on a plate (drawn
-/// as the "object" face), and the plate's pose in the hand frame.
+/// The simulated camera with the hand's marker (or board) printed on a
+/// plate (drawn as the "object" face), and the plate's pose in the hand frame.
 pub(crate) fn target_renderer(
     rig: &RigConfig,
     target: &HandTargetConfig,
     hand_from_target: &Isometry3<f64>,
     seed: u64,
 ) -> Result<(SimCameraRenderer, Isometry3<f64>)> {
-    let side_m = target.marker_size_m * 1.6;
+    let (face_size_m, marker_size_m) = match &target.board {
+        None => ([target.marker_size_m * 1.6; 2], target.marker_size_m),
+        Some(layout) => {
+            let [w, h] = layout.size_m();
+            let margin_m = 0.6 * layout.marker_length_m();
+            ([w + margin_m, h + margin_m], layout.marker_length_m())
+        }
+    };
     let appearance = ObjectAppearance {
-        face_size_m: [side_m, side_m],
-        marker_size_m: target.marker_size_m,
+        face_size_m,
+        marker_size_m,
         marker_centre_on_face_m: [0.0, 0.0],
         ..ObjectAppearance::default()
     };
+    // A board's centre frame is the renderer's "marker" frame.
     let hand_from_plate = hand_from_target * appearance.object_from_marker().inverse();
-    let marker = marker_pattern(&target.dictionary, target.id)?;
-    let renderer = SimCameraRenderer::new(rig.camera.clone(), appearance, marker, seed)?;
+    let (config, seed) = (rig.camera.clone(), seed);
+    let renderer = match &target.board {
+        None => {
+            SimCameraRenderer::new(config, appearance, marker_pattern(&target.dictionary, target.id)?, seed)?
+        }
+        Some(layout) => {
+            let markers = board_patterns(layout, &Dictionary::from_name(&target.dictionary)?)?;
+            SimCameraRenderer::with_board(
+                config,
+                appearance,
+                BoardPrint { layout: layout.clone(), markers },
+                seed,
+            )?
+        }
+    };
     Ok((renderer, hand_from_plate))
 }
 

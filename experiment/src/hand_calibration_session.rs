@@ -10,15 +10,16 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use nalgebra::Isometry3;
-use slidetrack_calibration::hand_eye::TargetView;
-use slidetrack_calibration::{Dictionary, MarkerTracker, encode_jpeg, marker_pose};
+use slidetrack_calibration::encode_jpeg;
 use slidetrack_core::{CameraIntrinsics, TimeNs};
 use slidetrack_session::{
-    CameraCalibration, CompressedImage, MessageReader, ReadOptions, Recorder, SessionInfo, read_json,
+    CameraCalibration, CompressedImage, MessageReader, ReadOptions, Recorder, RgbdCalibration, RgbdColor,
+    SessionInfo, read_json,
 };
 use slidetrack_vision::input::decode_color;
 
 use crate::hand_calibration::{HandCalibrationRun, Sources, finish, hand_target, target_renderer};
+use crate::hand_target::TargetFinder;
 use crate::rig_config::RigConfig;
 
 /// The colour channels a session may hold, each with its calibration
@@ -52,7 +53,7 @@ pub fn calibrate_hand_session(
     };
     let (intrinsics, intrinsics_from) = session_intrinsics(session, calibration_topic, &rig)?;
     let selected = spread(count, frames.unwrap_or(count));
-    let mut tracker = MarkerTracker::new(Dictionary::from_name(&target.dictionary)?, target.id)?;
+    let mut finder = TargetFinder::new(&target)?;
     let mut views = Vec::with_capacity(selected.len());
     let reader = MessageReader::open(session, &[topic], ReadOptions::default())?;
     let mut wanted = selected.iter().copied().peekable();
@@ -76,20 +77,13 @@ pub fn calibrate_hand_session(
                 intrinsics.height
             );
         }
-        tracker.reset();
-        let Some(d) = tracker.detect(&image)? else { continue };
-        let p = marker_pose(&d, &intrinsics, target.marker_size_m)?;
-        views.push(TargetView {
-            camera_from_target: p.camera_from_marker,
-            reprojection_error_px: p.reprojection_error_px,
-        });
+        views.extend(finder.view(&image, &intrinsics)?);
     }
     if views.is_empty() {
         bail!(
-            "{}: the hand's target (marker {} of {}, [hand_target]) is seen in none of the {} frames of {topic} looked at",
+            "{}: the hand's target ({}, [hand_target]) is seen in none of the {} frames of {topic} looked at",
             session.display(),
-            target.id,
-            target.dictionary,
+            target.describe(),
             selected.len()
         );
     }
@@ -154,30 +148,48 @@ pub struct HandTargetRecording {
     pub seed: u64,
     /// Write `/camera/calibration` (the simulated camera's intrinsics).
     pub with_calibration: bool,
+    /// Write the frames and the calibration as an RGB-D camera's colour
+    /// stream does, on `/rgbd/color` and `/rgbd/calibration`.
+    pub rgbd: bool,
     /// The session file to create.
     pub out: PathBuf,
 }
 
-/// Writes a session whose `/camera/image` holds the simulated camera's
-/// frames (JPEG, 30 Hz) of the hand's target, and `/camera/calibration`
-/// when asked; returns the camera's true placement in the hand frame.
+/// Writes a session whose `/camera/image` (or, with `rgbd`, `/rgbd/color`)
+/// holds the simulated camera's frames (JPEG, 30 Hz) of the hand's target,
+/// and `/camera/calibration` (`/rgbd/calibration`) when asked; returns the
+/// camera's true placement in the hand frame.
 pub fn record_hand_target_session(options: &HandTargetRecording) -> Result<Isometry3<f64>> {
     let rig = RigConfig::load(options.config.as_deref())?;
     let target = hand_target(&rig)?;
     let hand_from_target = target.hand_from_target.isometry()?;
     let (mut renderer, hand_from_plate) = target_renderer(&rig, &target, &hand_from_target, options.seed)?;
     let recorder = Recorder::create(&options.out, BTreeMap::new())?;
-    let images = recorder.register::<CompressedImage>(BTreeMap::new())?;
+    let (images, rgbd_images) = if options.rgbd {
+        (None, Some(recorder.register::<RgbdColor>(BTreeMap::new())?))
+    } else {
+        (Some(recorder.register::<CompressedImage>(BTreeMap::new())?), None)
+    };
     if options.with_calibration {
-        let ch = recorder.register::<CameraCalibration>(BTreeMap::new())?;
         let message = CameraCalibration::new(TimeNs::ZERO, "camera", renderer.intrinsics());
-        recorder.log_json(&ch, TimeNs::ZERO, TimeNs::ZERO, 0, &message)?;
+        if options.rgbd {
+            let ch = recorder.register::<RgbdCalibration>(BTreeMap::new())?;
+            recorder.log_json(&ch, TimeNs::ZERO, TimeNs::ZERO, 0, &RgbdCalibration(message))?;
+        } else {
+            let ch = recorder.register::<CameraCalibration>(BTreeMap::new())?;
+            recorder.log_json(&ch, TimeNs::ZERO, TimeNs::ZERO, 0, &message)?;
+        }
     }
     for k in 0..options.frames {
         let t = TimeNs(k as u64 * 1_000_000_000 / 30);
         let jpeg = encode_jpeg(&renderer.render_image(&hand_from_plate, k as u64), rig.camera.jpeg_quality)?;
         let message = CompressedImage::new(t, "camera", &jpeg);
-        recorder.log_json(&images, t, t, k as u32, &message)?;
+        if let Some(ch) = &images {
+            recorder.log_json(ch, t, t, k as u32, &message)?;
+        }
+        if let Some(ch) = &rgbd_images {
+            recorder.log_json(ch, t, t, k as u32, &RgbdColor(message))?;
+        }
     }
     recorder.finish().with_context(|| format!("cannot write {}", options.out.display()))?;
     Ok(*renderer.hand_from_camera())

@@ -13,6 +13,7 @@ use slidetrack_calibration::label::read_inputs;
 use slidetrack_session::ReadOptions;
 
 pub use slidetrack_calibration::ground_truth::AxisSource;
+pub use slidetrack_calibration::hand_frame::{HandCalibrationFile, HandFrame};
 pub use slidetrack_calibration::in_hand::InHandRecord;
 pub use slidetrack_calibration::in_hand::hold::DEFAULT_SETTLE_S;
 pub use slidetrack_calibration::label::{
@@ -131,6 +132,12 @@ pub fn in_hand_options(s: &InHandSettings<'_>) -> Result<Option<InHandOptions>> 
     Ok(Some(o))
 }
 
+/// The hand calibration at `path` (`calibrate hand --out`), checked;
+/// `None` without one.
+pub fn hand_calibration(path: Option<&Path>) -> Result<Option<HandCalibrationFile>> {
+    path.map(HandCalibrationFile::load).transpose().context("label --hand-calibration")
+}
+
 /// The pose smoother's densities tuned on all of `files` and the contact
 /// frame estimated from all their holds, put into `options`; `None`
 /// without in-hand labelling or without a hold.
@@ -142,6 +149,12 @@ pub fn in_hand_jointly_into(
     let Some(o) = options.in_hand.as_mut() else { return Ok(None) };
     let read = ReadOptions { recover };
     let inputs = files.iter().map(|f| read_inputs(f, read)).collect::<Result<Vec<_>, _>>()?;
+    if let Some(file) = &options.hand {
+        // The calibrated camera pose, and the geometry's contact frame (of
+        // the first session's rig configuration unless the file has one).
+        let frame = file.hand_frame(inputs.first().and_then(|i| i.rig_config.as_deref()))?;
+        *o = frame.in_hand_options(o);
+    }
     let Some(record) = in_hand_jointly(&inputs, o, true)? else { return Ok(None) };
     o.params = (&record.pose).into();
     o.contact = ContactSource::Given(record.contact.clone());

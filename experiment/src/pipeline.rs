@@ -130,6 +130,7 @@ pub fn label(files: &[PathBuf], protocol: Protocol, threads: usize, stop: &Atomi
     let options = LabelOptions {
         params: protocol.label_params(),
         axis: AxisSource::Recorded,
+        hand: None,
         recover: false,
         dry_run: false,
         tuning: Tuning::Off,

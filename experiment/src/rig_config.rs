@@ -44,6 +44,12 @@ pub struct RigConfig {
     /// The marker fixed to the hand for `calibrate hand`; absent by default.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hand_target: Option<crate::hand_target::HandTargetConfig>,
+    /// The parallel gripper's geometry in the hand frame (finger and closing
+    /// axes, grip point): `label --hand-calibration` takes the sliding axis
+    /// and the contact frame from it; absent: the defaults of
+    /// [`slidetrack_calibration::hand_frame::HandGeometry`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hand_geometry: Option<slidetrack_calibration::hand_frame::HandGeometry>,
 }
 
 /// The ArUco target on the object: one marker (its size comes with the
@@ -128,6 +134,9 @@ impl RigConfig {
         );
         s.validate()?;
         self.camera.validate().context("camera")?;
+        if let Some(g) = &self.hand_geometry {
+            g.axes("the rig config")?;
+        }
         if let Some(hw) = &self.hw {
             hw.validate()?;
             let rate = hw.tactile_rate_hz(s.tactile_rate_hz);

@@ -165,6 +165,15 @@ pub struct LabelArgs {
     /// as on the imanlab rigs).
     #[arg(long, value_name = "X,Y,Z,QX,QY,QZ,QW", value_delimiter = ',', num_args = 7)]
     pub hand_from_camera: Option<Vec<f64>>,
+    /// A hand calibration (the `[camera] placement` that `calibrate hand
+    /// --out` writes, optionally with the hand's `[hand_geometry]`): the
+    /// marker's positions and poses are moved into the hand frame with it,
+    /// and the sliding axis (closing x fingers) and the gripper's contact
+    /// frame come from the hand's geometry (this file's `[hand_geometry]`,
+    /// else the session's rig config's, else the defaults) instead of
+    /// `--axis`, the rig config's placement or an estimate.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["axis", "hand_from_camera", "in_hand"])]
+    pub hand_calibration: Option<PathBuf>,
     /// Recordings without the protocol: the normal load (sum of the
     /// baseline-subtracted z counts of every taxel) at which the hold begins.
     #[arg(long, value_name = "COUNTS", default_value_t = slidetrack_experiment::labelling::DEFAULT_CONTACT_LOAD_COUNTS)]

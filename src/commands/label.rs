@@ -4,9 +4,9 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use slidetrack_experiment::labelling::{
-    AxisSource, CvParams, GroundTruthSlot, InHandRecord, InHandSettings, JointTuning, LabelOptions,
-    LabelReport, SmootherSettings, Tuning, in_hand_jointly_into, in_hand_options, label_session,
-    smoother_params, tune_sessions,
+    AxisSource, CvParams, GroundTruthSlot, HandFrame, InHandRecord, InHandSettings, JointTuning,
+    LabelOptions, LabelReport, SmootherSettings, Tuning, hand_calibration, in_hand_jointly_into,
+    in_hand_options, label_session, smoother_params, tune_sessions,
 };
 
 use crate::cli::{AxisArg, LabelArgs, SlotArg};
@@ -76,6 +76,7 @@ fn options(args: &LabelArgs) -> Result<LabelOptions> {
             AxisArg::Config => AxisSource::Config,
             AxisArg::Estimate => AxisSource::Estimate,
         },
+        hand: hand_calibration(args.hand_calibration.as_deref())?,
         recover: args.recover,
         dry_run: args.dry_run,
         tuning: if args.tune { Tuning::PerSession } else { Tuning::Off },
@@ -222,18 +223,47 @@ fn to_text(r: &LabelReport) -> String {
         )
     });
     format!(
-        "{}: {} scans {action}; {} camera frames, {} marker positions ({} missing), {} outliers rejected{rmse}{tuned}{in_hand}",
+        "{}: {} scans {action}; {} camera frames, {} marker positions ({} missing), {} outliers rejected{rmse}{tuned}{in_hand}{}",
         r.path.display(),
         r.samples,
         r.frames,
         r.detections,
         r.missing_detections,
-        r.rejected_outliers
+        r.rejected_outliers,
+        r.hand_frame.as_ref().map_or(String::new(), hand_frame_text)
     )
 }
 
-fn to_json(r: &LabelReport) -> serde_json::Value {
+/// The hand frame of a labelling with a hand calibration, in one line.
+fn hand_frame_text(h: &HandFrame) -> String {
+    let s = h.axes.sliding;
+    format!(
+        "\n  hand frame: camera from {}; sliding axis ({:.3}, {:.3}, {:.3}) in the hand, from {}",
+        h.calibration.display(),
+        s.x,
+        s.y,
+        s.z,
+        h.geometry_from
+    )
+}
+
+/// The hand frame as JSON: the calibration, the geometry and its axes.
+fn hand_frame_json(h: &HandFrame) -> serde_json::Value {
+    let t = h.hand_from_camera.translation.vector;
+    let q = h.hand_from_camera.rotation.coords;
     json!({
+        "calibration": h.calibration.display().to_string(),
+        "hand_from_camera": { "translation_m": [t.x, t.y, t.z], "quaternion_xyzw": [q.x, q.y, q.z, q.w] },
+        "geometry": h.geometry,
+        "geometry_from": h.geometry_from,
+        "sliding_axis_in_hand": h.axes.sliding.as_slice(),
+        "closing_axis_in_hand": h.axes.closing.as_slice(),
+        "contact": h.contact,
+    })
+}
+
+fn to_json(r: &LabelReport) -> serde_json::Value {
+    let mut out = json!({
         "file": r.path.display().to_string(),
         "samples": r.samples,
         "camera_frames": r.frames,
@@ -265,5 +295,11 @@ fn to_json(r: &LabelReport) -> serde_json::Value {
             "velocity_mps": e.velocity_mps,
             "samples": e.samples,
         })),
-    })
+    });
+    // Only with a hand calibration: the output without one stays as it was.
+    if let (Some(h), Some(map)) = (&r.hand_frame, out.as_object_mut()) {
+        map.insert("hand_frame".into(), hand_frame_json(h));
+        map.insert("axis_from".into(), r.axis_from.clone().into());
+    }
+    out
 }
