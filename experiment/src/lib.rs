@@ -18,6 +18,7 @@ pub mod hand_calibration;
 pub mod hand_calibration_session;
 pub mod hand_target;
 pub mod image_markers;
+pub mod image_encoder;
 pub mod import;
 pub mod labelling;
 pub mod linear_baseline;
