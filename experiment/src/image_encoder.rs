@@ -83,7 +83,9 @@ mod tests {
 
     use slidetrack_control::{ObserverError, TrialObserver};
     use slidetrack_core::{CameraIntrinsics, Frame, PixelFormat, TactileInfo, encode_jpeg};
-    use slidetrack_session::{ArucoDetection, ChannelMessage, ReadOptions, Recorder, RecorderOptions, read_json};
+    use slidetrack_session::{
+        ArucoDetection, ChannelMessage, ReadOptions, Recorder, RecorderOptions, read_json,
+    };
 
     use super::*;
     use crate::marker::MarkerSource;
@@ -114,7 +116,8 @@ mod tests {
 
     /// Records 12 frames, encoded by the camera or (`deferred`) by the observer's thread.
     fn record(path: &std::path::Path, deferred: bool) {
-        let options = RecorderOptions { flush_interval: Duration::from_secs(3600), ..RecorderOptions::default() };
+        let options =
+            RecorderOptions { flush_interval: Duration::from_secs(3600), ..RecorderOptions::default() };
         let rec = Recorder::create_with_options(path, BTreeMap::new(), options).unwrap();
         let intrinsics = CameraIntrinsics {
             width: 32,

@@ -118,8 +118,9 @@ pub fn record_devices(
     progress: &mut dyn FnMut(TimeNs),
 ) -> Result<RecordReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, image_encoder, .. } =
-        setup;
+    let RigSetup {
+        mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, image_encoder, ..
+    } = setup;
     let mut hand_monitor = rig.hand_monitor.take();
     let metadata = record_metadata(spec, rig_name, &tactile_info, extra_metadata)?;
     let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };

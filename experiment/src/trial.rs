@@ -124,8 +124,9 @@ pub fn record_trial_with<'a>(
     extension: Option<ExtensionFactory<'a>>,
 ) -> Result<TrialReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, image_encoder, .. } =
-        setup;
+    let RigSetup {
+        mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, image_encoder, ..
+    } = setup;
     let object = spec.object;
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),

@@ -42,7 +42,7 @@ fn record(path: &std::path::Path, deferred: bool) {
             rec.log_json(&images, t, t, i, &image(i)).unwrap();
         }
     }
-    let filler = std::thread::spawn(move || {
+    let filler = std::thread::Builder::new().name("filler".into()).spawn(move || {
         std::thread::sleep(Duration::from_millis(20));
         for (i, out) in pending.into_iter().rev() {
             if i != FAILED {
@@ -51,7 +51,7 @@ fn record(path: &std::path::Path, deferred: bool) {
         }
     });
     let stats = rec.finish().unwrap();
-    filler.join().unwrap();
+    filler.unwrap().join().unwrap();
     assert_eq!(stats.messages_written, 40 + 9, "40 scans, 9 images written");
 }
 

@@ -243,11 +243,8 @@ impl<'a, P: PlanarPattern, const C: usize> Resolved<'a, P, C> {
 /// Draws `pattern` on `plane` into `target` over `rect`, which must contain
 /// the plane's outline grown by at least `block_size + kernel radius` pixels
 /// (or reach the image border there). `block_size` must be at least the
-/// kernel radius.
-#[expect(
-    clippy::too_many_lines,
-    reason = "one function on purpose: the block classification, the exact per-pixel fill and the blur share the block grid and its scratch buffers, and the test against exhaustive rendering covers them together"
-)]
+/// kernel radius. Classifies the blocks, then draws them in one band of
+/// block rows or (`scratch.two_threads`) two, on two threads.
 pub(super) fn draw_plane<P: PlanarPattern + Sync, const C: usize>(
     scene: &Scene<'_>,
     plane: &PlaneInCamera,

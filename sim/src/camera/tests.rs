@@ -287,7 +287,8 @@ fn drawing_on_two_threads_gives_the_same_frames_as_on_one() {
             Translation3::new(-0.1, -0.06, 0.45),
             UnitQuaternion::from_euler_angles(0.3, -0.2, 0.1),
         );
-        let (a, b) = (one.render_board(&board, &camera_from_board), two.render_board(&board, &camera_from_board));
+        let (a, b) =
+            (one.render_board(&board, &camera_from_board), two.render_board(&board, &camera_from_board));
         assert!(a.data == b.data, "{format:?}: the boards differ");
     }
 }
