@@ -17,6 +17,7 @@ pub mod grasp_state;
 pub mod hand_calibration;
 pub mod hand_calibration_session;
 pub mod hand_target;
+pub mod image_encoder;
 pub mod image_markers;
 pub mod import;
 pub mod labelling;

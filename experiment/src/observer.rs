@@ -17,6 +17,7 @@ use slidetrack_session::{
     TactileTare, TactileZeroed, TaxelLayout, sensor_taxels,
 };
 
+use crate::image_encoder::{ImageEncodeFn, ImageEncoderThread};
 use crate::marker::MarkerSource;
 
 /// What a trial recorded, for the summary line.
@@ -120,6 +121,8 @@ pub struct SessionObserver<'a> {
     force_calibration: Option<TactileForceCalibration>,
     /// The scan counter of the latest scan.
     last_sequence: u64,
+    /// Encodes the frames that come without their image (see [`SessionObserver::with_image_encoder`]).
+    image_encoder: Option<ImageEncoderThread>,
 }
 
 impl<'a> SessionObserver<'a> {
@@ -204,6 +207,7 @@ impl<'a> SessionObserver<'a> {
             layout: tactile.layout.clone(),
             force_calibration: None,
             last_sequence: 0,
+            image_encoder: None,
         })
     }
 
@@ -211,6 +215,15 @@ impl<'a> SessionObserver<'a> {
     pub fn with_extension(mut self, extension: Box<dyn TrialExtension + 'a>) -> SessionObserver<'a> {
         self.extension = Some(extension);
         self
+    }
+
+    /// Encodes the frames that come with pixels and no image (the simulated
+    /// camera of a trial that is not in real time) with `encode`, on a
+    /// thread of its own; the session is the same as if the camera had
+    /// encoded them, except that none is ever dropped.
+    pub fn with_image_encoder(mut self, encode: Option<ImageEncodeFn>) -> Result<SessionObserver<'a>> {
+        self.image_encoder = encode.map(ImageEncoderThread::start).transpose()?;
+        Ok(self)
     }
 
     /// Records `/tactile/calibrated` from every tared scan through
@@ -374,7 +387,7 @@ impl TrialObserver for SessionObserver<'_> {
         Ok(())
     }
 
-    fn on_frame(&mut self, frame: Frame) -> Result<Option<f64>, ObserverError> {
+    fn on_frame(&mut self, mut frame: Frame) -> Result<Option<f64>, ObserverError> {
         self.stats.frames += 1;
         let seq = (frame.sequence & u64::from(u32::MAX)) as u32;
         let detection = match self.marker.as_mut() {
@@ -387,15 +400,27 @@ impl TrialObserver for SessionObserver<'_> {
         if let Some(p) = detection.position_on_axis_m {
             self.stats.max_marker_travel_m = self.stats.max_marker_travel_m.max(p.abs());
         }
-        if let (Some(ch), Some(encoded)) = (&self.ch.image, &frame.encoded) {
-            let msg = CompressedImage::new(frame.t, "camera", encoded);
-            self.logger.log_json_lossy(ch, frame.t, frame.t, seq, &msg)?;
+        let mut pending = None;
+        if let Some(ch) = &self.ch.image {
+            match (&frame.encoded, &self.image_encoder, &frame.pixels) {
+                (Some(encoded), ..) => {
+                    let msg = CompressedImage::new(frame.t, "camera", encoded);
+                    self.logger.log_json_lossy(ch, frame.t, frame.t, seq, &msg)?;
+                }
+                (None, Some(encoder), Some(_)) => {
+                    pending = Some((encoder, self.logger.log_json_pending(ch, frame.t, frame.t, seq)?));
+                }
+                _ => {}
+            }
         }
         if let Some(ch) = &self.ch.aruco {
             self.logger.log_json(ch, frame.t, frame.t, seq, &detection)?;
         }
         if let Some(x) = self.extension.as_mut() {
             x.on_frame(&frame, detection.position_on_axis_m)?;
+        }
+        if let (Some((encoder, out)), Some(pixels)) = (pending, frame.pixels.take()) {
+            encoder.submit(pixels, frame.t, out);
         }
         Ok(detection.position_on_axis_m)
     }

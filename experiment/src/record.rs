@@ -118,7 +118,9 @@ pub fn record_devices(
     progress: &mut dyn FnMut(TimeNs),
 ) -> Result<RecordReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, .. } = setup;
+    let RigSetup {
+        mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, image_encoder, ..
+    } = setup;
     let mut hand_monitor = rig.hand_monitor.take();
     let metadata = record_metadata(spec, rig_name, &tactile_info, extra_metadata)?;
     let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
@@ -131,7 +133,8 @@ pub fn record_devices(
         markers,
         with_truth,
         Box::new(progress),
-    )?;
+    )?
+    .with_image_encoder(image_encoder)?;
     let end_at = duration_s.map(TimeNs::from_secs_f64);
     let mut hand_states = 0;
     let mut last_scan = rig.clock.now();

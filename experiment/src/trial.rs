@@ -124,7 +124,9 @@ pub fn record_trial_with<'a>(
     extension: Option<ExtensionFactory<'a>>,
 ) -> Result<TrialReport> {
     let started = Instant::now();
-    let RigSetup { mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, .. } = setup;
+    let RigSetup {
+        mut rig, tactile_info, markers, rig_name, extra_metadata, mut rgbd, image_encoder, ..
+    } = setup;
     let object = spec.object;
     let metadata = SessionMetadata {
         software_version: env!("CARGO_PKG_VERSION").into(),
@@ -148,6 +150,7 @@ pub fn record_trial_with<'a>(
     let with_truth = rig.truth.is_some();
     let mut observer =
         SessionObserver::new(recorder.logger(), &tactile_info, markers, with_truth, Box::new(progress))?;
+    observer = observer.with_image_encoder(image_encoder)?;
     if let Some(calibration) = force_calibration {
         observer = observer.with_force_calibration(calibration)?;
     }

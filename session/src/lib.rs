@@ -65,5 +65,5 @@ pub use vision_pose::{
     FrameTransform, ObjectTruth, PoseInFrame, RawImage, RgbdCalibration, RgbdColor, RgbdMask,
     VelocityEstimate, VisionMask, VisionPose,
 };
-pub use writer::{ChannelHandle, Logger, RecorderOptions, Untyped};
+pub use writer::{ChannelHandle, Logger, PendingPayload, RecorderOptions, Untyped};
 pub use writer_thread::SessionSink;

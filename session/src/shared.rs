@@ -26,6 +26,15 @@ pub(crate) enum Command {
         /// Counted in `Shared::lossy_bytes_queued` until dequeued.
         lossy: bool,
     },
+    /// A message whose payload another thread computes: the writer waits
+    /// for it in its turn (see [`Logger::log_pending`](super::Logger::log_pending)).
+    Pending {
+        channel: u16,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+        payload: crossbeam_channel::Receiver<Vec<u8>>,
+    },
     Attachment {
         name: String,
         media_type: String,

@@ -247,6 +247,38 @@ impl Logger {
         Ok(accepted)
     }
 
+    /// Queues a message whose payload is computed elsewhere (an image
+    /// encoded on another thread), blocking while the queue is full like
+    /// [`Logger::log`]: it takes its place among the messages now, and the
+    /// writer waits for its payload when it gets there, so the file is the
+    /// same as if the payload had been logged here. Fill the returned
+    /// [`PendingPayload`]; dropped unfilled, the message is left out.
+    pub fn log_pending(
+        &self,
+        channel: &ChannelHandle<Untyped>,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+    ) -> Result<PendingPayload, SessionError> {
+        self.shared.check()?;
+        let (tx, payload) = crossbeam_channel::bounded(1);
+        let cmd = Command::Pending { channel: channel.id, log_time, publish_time, sequence, payload };
+        self.tx.send(cmd).map_err(|_| self.shared.closed())?;
+        Ok(PendingPayload { tx })
+    }
+
+    /// [`Logger::log_pending`] on a typed channel: fill it with
+    /// [`PendingPayload::fill_json`].
+    pub fn log_json_pending<T: Serialize>(
+        &self,
+        channel: &ChannelHandle<T>,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+    ) -> Result<PendingPayload, SessionError> {
+        self.log_pending(&channel.untyped(), log_time, publish_time, sequence)
+    }
+
     fn encode<T: Serialize>(&self, channel: &ChannelHandle<T>, message: &T) -> Result<Vec<u8>, SessionError> {
         serde_json::to_vec(message).map_err(|source| SessionError::Encode {
             path: self.shared.path.clone(),
@@ -303,5 +335,28 @@ impl Logger {
     /// The session file.
     pub fn path(&self) -> &Path {
         &self.shared.path
+    }
+}
+
+/// The payload of a message queued by [`Logger::log_pending`]; `Send`, so
+/// another thread can compute and fill it.
+#[derive(Debug)]
+pub struct PendingPayload {
+    tx: Sender<Vec<u8>>,
+}
+
+impl PendingPayload {
+    /// Hands the payload to the writer.
+    pub fn fill(self, payload: Vec<u8>) {
+        // The writer gone (the recorder failed or finished): nothing to write to.
+        let _ = self.tx.send(payload);
+    }
+
+    /// Hands `message` serialized as JSON (as [`Logger::log_json`] does);
+    /// a message that does not serialize is left out.
+    pub fn fill_json<T: Serialize>(self, message: &T) {
+        if let Ok(payload) = serde_json::to_vec(message) {
+            self.fill(payload);
+        }
     }
 }

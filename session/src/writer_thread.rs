@@ -122,6 +122,15 @@ impl WriterThread {
                     live.message(channel, log_time, publish_time, sequence, payload);
                 }
             }
+            Command::Pending { channel, log_time, publish_time, sequence, payload } => {
+                // Its producer dropped it unfilled: the message is not written.
+                if let Ok(payload) = payload.recv() {
+                    self.write_message(channel, log_time, publish_time, sequence, &payload)?;
+                    if let Some(live) = &mut self.live {
+                        live.message(channel, log_time, publish_time, sequence, payload);
+                    }
+                }
+            }
             Command::Attachment { name, media_type, data } => {
                 let attachment = Attachment {
                     log_time: self.last_log_time.0,

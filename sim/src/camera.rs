@@ -14,7 +14,9 @@
 //! pixel by pixel and blurred: its bounding box is cut into 4 px blocks, a
 //! block whose corners show one colour is filled with it, and the blurred
 //! background computed at start-up is left as it is (see `blocks.rs`; a test
-//! checks the result against rendering every pixel).
+//! checks the result against rendering every pixel). Where the process may
+//! run on two cores the lower half of the block rows is drawn on a second
+//! thread, with the same result to the byte.
 //!
 //! Frames, all right-handed:
 //! - `hand`: origin at the palm, x forward towards the object, y left, z up.

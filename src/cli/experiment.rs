@@ -138,7 +138,7 @@ pub struct DemoArgs {
 /// A benchmark of `bench`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum BenchWhat {
-    /// Collecting a simulated trial, with and without camera (one core).
+    /// Collecting a simulated trial, with and without camera (two cores; target 30x real time with the camera).
     Collect,
     /// One online dEKF step, derivative filter included (one core).
     Dekf,

@@ -201,6 +201,7 @@ impl ReplaySession {
             extra_metadata,
             rgbd: None,
             rgbd_frames: None,
+            image_encoder: None,
         })
     }
 

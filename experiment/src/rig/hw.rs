@@ -139,6 +139,7 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         extra_metadata: std::collections::BTreeMap::new(),
         rgbd: None,
         rgbd_frames: None,
+        image_encoder: None,
     };
     if let Some(Shared { camera, frames, markers }) = shared {
         if let Some((path, offset_ns)) = &camera.replay {

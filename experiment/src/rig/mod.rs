@@ -17,6 +17,8 @@ use slidetrack_core::{
 };
 use slidetrack_sim::{HandKind, ObjectConfig, SimCamera, SimDevices};
 
+use crate::image_encoder::ImageEncodeFn;
+
 #[cfg(all(feature = "devices", target_os = "linux"))]
 pub use crate::v4l2_intrinsics::v4l2_intrinsics;
 #[cfg(all(feature = "devices", target_os = "linux"))]
@@ -38,7 +40,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
     let sim = SimDevices::new(&spec.rig.sim, object, spec.seed, spec.trial, clock.clone());
     let tactile_info = sim.tactile.info();
     let geometry = &spec.rig.geometry;
-    let (camera, markers) = if spec.camera {
+    let (camera, markers, image_encoder) = if spec.camera {
         let renderer = sim_camera_renderer(spec)?;
         let camera = SimCamera::new(
             sim.world.clone(),
@@ -48,17 +50,25 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         )?;
         // libjpeg-turbo through OpenCV: several times faster than the built-in encoder.
         let quality = camera.jpeg_quality();
-        let camera = camera.with_encoder(Box::new(move |image| match encode_jpeg(image, quality) {
+        let encode: ImageEncodeFn = Box::new(move |image| match encode_jpeg(image, quality) {
             Ok(encoded) => Some(encoded),
             Err(e) => {
                 tracing::warn!("sim camera: {e}");
                 None
             }
-        }));
+        });
+        // Not in real time, the observer encodes the frames on another core
+        // (the same session, never a frame dropped); in real time the camera
+        // encodes them, and a recorder that falls behind drops images.
+        let (camera, image_encoder) = if spec.realtime {
+            (camera.with_encoder(encode), None)
+        } else {
+            (camera.with_encoder(Box::new(|_| None)), Some(encode))
+        };
         let markers = marker_tracking(spec, camera.hand_from_camera(), camera.intrinsics())?;
-        (Some(Box::new(camera) as Box<dyn Camera>), Some(markers))
+        (Some(Box::new(camera) as Box<dyn Camera>), Some(markers), image_encoder)
     } else {
-        (None, None)
+        (None, None, None)
     };
     let hand_monitor = Some(Box::new(sim.hand_monitor()) as Box<dyn HandMonitor>);
     let rig = Rig {
@@ -77,6 +87,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         extra_metadata: BTreeMap::new(),
         rgbd: None,
         rgbd_frames: None,
+        image_encoder,
     })
 }
 

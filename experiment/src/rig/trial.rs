@@ -16,6 +16,7 @@ use slidetrack_session::LiveTap;
 use slidetrack_sim::camera::{BoardPrint, SimCameraRenderer};
 use slidetrack_sim::{ObjectConfig, Stream, stream_seed};
 
+use crate::image_encoder::ImageEncodeFn;
 use crate::marker::{LiveBoard, LiveMarkers, MarkerSource};
 use crate::rig_config::RigConfig;
 use crate::vision::shared_camera::{SharedFrames, SharedRgbd};
@@ -72,6 +73,10 @@ pub struct RigSetup {
     pub rgbd: Option<SharedRgbd>,
     /// Its pairs, for a vision tracker that takes them.
     pub rgbd_frames: Option<SharedFrames>,
+    /// The encoder of a camera that delivers its frames unencoded (the
+    /// simulated camera when not in real time), for the observer to run
+    /// on a thread of its own ([`crate::image_encoder`]).
+    pub image_encoder: Option<ImageEncodeFn>,
 }
 
 /// Whether a rig drives its hand.

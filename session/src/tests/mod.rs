@@ -5,6 +5,7 @@ mod errors;
 mod kill;
 mod live_tap;
 mod other_channels;
+mod pending;
 mod python;
 mod queue;
 mod read_all;

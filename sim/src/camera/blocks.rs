@@ -69,14 +69,27 @@ pub(super) fn in_box(a: f64, b: f64, [a0, a1, b0, b1]: [f64; 4]) -> bool {
     a >= a0 && a <= a1 && b >= b0 && b <= b1
 }
 
-/// Where the frame is drawn: its bytes, the noise for each byte, its width.
+/// Where the frame is drawn: its bytes (all rows, or the rows from `row0`
+/// on), the noise for each byte of the frame, its width.
 pub(super) struct Target<'a> {
-    /// The frame, `C` bytes per pixel.
+    /// The frame's rows from `row0` on, `C` bytes per pixel.
     pub data: &'a mut [u8],
-    /// Fixed-point noise for every byte of `data`.
+    /// Fixed-point noise for every byte of the whole frame.
     pub noise: &'a [i16],
     /// Frame width (px).
     pub image_width: usize,
+    /// The frame row that `data` starts with.
+    pub row0: usize,
+}
+
+impl Target<'_> {
+    /// Quantises `fixed` with its noise into the frame from pixel `(x, y)` on.
+    #[inline]
+    fn write(&mut self, x: usize, y: usize, channels: usize, fixed: &[i16]) {
+        let start = (y * self.image_width + x) * channels;
+        let local = start - self.row0 * self.image_width * channels;
+        quantise(fixed, &self.noise[start..start + fixed.len()], &mut self.data[local..local + fixed.len()]);
+    }
 }
 
 /// The inputs shared by every frame.
@@ -101,16 +114,60 @@ enum Block {
 /// Buffers reused from frame to frame.
 #[derive(Default)]
 pub(super) struct BlockScratch {
-    patch: Vec<f32>,
     coarse: Vec<Corner>,
     blocks: Vec<Block>,
     active: Vec<bool>,
+    /// The buffers of each thread drawing (one per band of block rows).
+    lanes: [Lane; 2],
+    /// Render every block per pixel, over the whole image (a reference for tests).
+    pub exhaustive: bool,
+    /// Draw the lower half of the block rows on a second thread (the same
+    /// pixels: every pixel is computed by the same operations either way).
+    pub two_threads: bool,
+}
+
+impl BlockScratch {
+    /// Empty buffers, drawing on two threads or one.
+    pub(super) fn with_threads(two_threads: bool) -> BlockScratch {
+        BlockScratch { two_threads, ..BlockScratch::default() }
+    }
+}
+
+/// The buffers of one thread drawing a band of block rows.
+#[derive(Default)]
+struct Lane {
+    patch: Vec<f32>,
     corners: Vec<Corner>,
     horizontal: Vec<f32>,
     vertical: Vec<f32>,
     fixed: Vec<i16>,
-    /// Render every block per pixel, over the whole image (a reference for tests).
-    pub exhaustive: bool,
+}
+
+/// Fewest block rows worth a second thread (a thread start costs about as
+/// much as drawing a few rows of blocks).
+const MIN_ROWS_TWO_THREADS: usize = 8;
+
+/// The block grid of one frame and what is known of each block, shared by
+/// the threads drawing it.
+struct Grid<'a> {
+    rect: PixelRect,
+    block_size: usize,
+    nbx: usize,
+    nby: usize,
+    blocks: &'a [Block],
+    active: &'a [bool],
+}
+
+impl Grid<'_> {
+    fn block_rect(&self, bx: usize, by: usize) -> PixelRect {
+        let (w, h, b, rect) = (self.rect.width(), self.rect.height(), self.block_size, self.rect);
+        PixelRect {
+            x0: rect.x0 + (bx * b).min(w),
+            y0: rect.y0 + (by * b).min(h),
+            x1: rect.x0 + ((bx + 1) * b).min(w),
+            y1: rect.y0 + ((by + 1) * b).min(h),
+        }
+    }
 }
 
 /// Plane coordinates (m; NaN when the ray misses) and part at a pixel corner.
@@ -186,12 +243,9 @@ impl<'a, P: PlanarPattern, const C: usize> Resolved<'a, P, C> {
 /// Draws `pattern` on `plane` into `target` over `rect`, which must contain
 /// the plane's outline grown by at least `block_size + kernel radius` pixels
 /// (or reach the image border there). `block_size` must be at least the
-/// kernel radius.
-#[expect(
-    clippy::too_many_lines,
-    reason = "one function on purpose: the block classification, the exact per-pixel fill and the blur share the block grid and its scratch buffers, and the test against exhaustive rendering covers them together"
-)]
-pub(super) fn draw_plane<P: PlanarPattern, const C: usize>(
+/// kernel radius. Classifies the blocks, then draws them in one band of
+/// block rows or (`scratch.two_threads`) two, on two threads.
+pub(super) fn draw_plane<P: PlanarPattern + Sync, const C: usize>(
     scene: &Scene<'_>,
     plane: &PlaneInCamera,
     pattern: &P,
@@ -210,12 +264,6 @@ pub(super) fn draw_plane<P: PlanarPattern, const C: usize>(
     };
     let (w, h) = (rect.width(), rect.height());
     let (nbx, nby) = (w.div_ceil(block_size), h.div_ceil(block_size));
-    let block_rect = |bx: usize, by: usize| PixelRect {
-        x0: rect.x0 + (bx * block_size).min(w),
-        y0: rect.y0 + (by * block_size).min(h),
-        x1: rect.x0 + ((bx + 1) * block_size).min(w),
-        y1: rect.y0 + ((by + 1) * block_size).min(h),
-    };
 
     // Classify blocks from the parts at their corners.
     scratch.coarse.clear();
@@ -253,20 +301,51 @@ pub(super) fn draw_plane<P: PlanarPattern, const C: usize>(
         }
     }
 
-    // Render what the blur of active blocks reads: active blocks and their neighbours.
-    scratch.patch.resize(w * h * C, 0.0);
-    for by in 0..nby {
+    let grid = Grid { rect, block_size, nbx, nby, blocks: &scratch.blocks, active: &scratch.active };
+    let [upper, lower] = &mut scratch.lanes;
+    if !scratch.two_threads || nby < MIN_ROWS_TWO_THREADS {
+        draw_band::<P, C>(scene, &grid, 0..nby, &corner_at, &resolved, upper, target);
+        return;
+    }
+    // Two bands of block rows, each drawn (and blurred) by its own thread
+    // into its own rows of the frame; each renders the block row beyond its
+    // edge too, which its blur reads.
+    let split = nby / 2;
+    let split_y = rect.y0 + split * block_size;
+    let bytes = (split_y - target.row0) * target.image_width * C;
+    let (top, bottom) = std::mem::take(&mut target.data).split_at_mut(bytes);
+    let mut top = Target { data: top, ..*target };
+    let mut bottom = Target { data: bottom, row0: split_y, ..*target };
+    let (grid, corner_at, resolved) = (&grid, &corner_at, &resolved);
+    std::thread::scope(|s| {
+        s.spawn(move || draw_band::<P, C>(scene, grid, split..nby, corner_at, resolved, lower, &mut bottom));
+        draw_band::<P, C>(scene, grid, 0..split, corner_at, resolved, upper, &mut top);
+    });
+}
+
+/// Renders, blurs and writes the block rows `rows` of `grid`, with `lane`'s buffers.
+fn draw_band<P: PlanarPattern + Sync, const C: usize>(
+    scene: &Scene<'_>,
+    grid: &Grid<'_>,
+    rows: std::ops::Range<usize>,
+    corner_at: &impl Fn(usize, usize) -> Corner,
+    resolved: &Resolved<'_, P, C>,
+    lane: &mut Lane,
+    target: &mut Target<'_>,
+) {
+    let (rect, nbx, nby) = (grid.rect, grid.nbx, grid.nby);
+    // Render what the blur of active blocks reads: active blocks and their
+    // neighbours, in the band and the block row on either side of it.
+    lane.patch.resize(rect.width() * rect.height() * C, 0.0);
+    for by in rows.start.saturating_sub(1)..(rows.end + 1).min(nby) {
         for bx in 0..nbx {
             let near_active = (by.saturating_sub(1)..(by + 2).min(nby))
-                .any(|y| (bx.saturating_sub(1)..(bx + 2).min(nbx)).any(|x| scratch.active[y * nbx + x]));
+                .any(|y| (bx.saturating_sub(1)..(bx + 2).min(nbx)).any(|x| grid.active[y * nbx + x]));
             if near_active {
-                match scratch.blocks[by * nbx + bx] {
-                    Block::Uniform(class) => {
-                        fill_block(scene, rect, block_rect(bx, by), class, &resolved, scratch)
-                    }
-                    Block::Mixed => {
-                        render_block(scene, rect, block_rect(bx, by), &corner_at, &resolved, scratch)
-                    }
+                let block = grid.block_rect(bx, by);
+                match grid.blocks[by * nbx + bx] {
+                    Block::Uniform(class) => fill_block(scene, rect, block, class, resolved, lane),
+                    Block::Mixed => render_block(scene, rect, block, corner_at, resolved, lane),
                 }
             }
         }
@@ -274,24 +353,24 @@ pub(super) fn draw_plane<P: PlanarPattern, const C: usize>(
 
     // Write: runs of active blocks blurred, calm coloured blocks as constants;
     // calm background is already in the frame.
-    for by in 0..nby {
+    for by in rows {
         let mut bx = 0;
         while bx < nbx {
             let start = bx;
-            if scratch.active[by * nbx + bx] {
-                while bx < nbx && scratch.active[by * nbx + bx] {
+            if grid.active[by * nbx + bx] {
+                while bx < nbx && grid.active[by * nbx + bx] {
                     bx += 1;
                 }
-                let run = PixelRect { x1: block_rect(bx - 1, by).x1, ..block_rect(start, by) };
-                blur_span::<C>(scene.kernel, rect, run, scratch, target);
+                let run = PixelRect { x1: grid.block_rect(bx - 1, by).x1, ..grid.block_rect(start, by) };
+                blur_span::<C>(scene.kernel, rect, run, lane, target);
             } else {
-                let me = scratch.blocks[by * nbx + bx];
-                while bx < nbx && !scratch.active[by * nbx + bx] && scratch.blocks[by * nbx + bx] == me {
+                let me = grid.blocks[by * nbx + bx];
+                while bx < nbx && !grid.active[by * nbx + bx] && grid.blocks[by * nbx + bx] == me {
                     bx += 1;
                 }
                 if let Block::Uniform(class @ 1..) = me {
-                    let run = PixelRect { x1: block_rect(bx - 1, by).x1, ..block_rect(start, by) };
-                    write_constant(run, resolved.classes[class as usize], &mut scratch.fixed, target);
+                    let run = PixelRect { x1: grid.block_rect(bx - 1, by).x1, ..grid.block_rect(start, by) };
+                    write_constant(run, resolved.classes[class as usize], &mut lane.fixed, target);
                 }
             }
         }
@@ -305,12 +384,12 @@ fn fill_block<P: PlanarPattern, const C: usize>(
     block: PixelRect,
     class: u16,
     resolved: &Resolved<'_, P, C>,
-    scratch: &mut BlockScratch,
+    lane: &mut Lane,
 ) {
     let row_len = block.width() * C;
     for v in block.y0..block.y1 {
         let dst_start = ((v - rect.y0) * rect.width() + (block.x0 - rect.x0)) * C;
-        let dst = &mut scratch.patch[dst_start..dst_start + row_len];
+        let dst = &mut lane.patch[dst_start..dst_start + row_len];
         if class == 0 {
             let src_start = (v * scene.map.width() + block.x0) * C;
             dst.copy_from_slice(&scene.background[src_start..src_start + row_len]);
@@ -331,13 +410,13 @@ fn render_block<P: PlanarPattern, const C: usize>(
     block: PixelRect,
     corner_at: &impl Fn(usize, usize) -> Corner,
     resolved: &Resolved<'_, P, C>,
-    scratch: &mut BlockScratch,
+    lane: &mut Lane,
 ) {
     let stride = block.width() + 1;
-    scratch.corners.clear();
+    lane.corners.clear();
     for j in block.y0..=block.y1 {
         for i in block.x0..=block.x1 {
-            scratch.corners.push(corner_at(i, j));
+            lane.corners.push(corner_at(i, j));
         }
     }
     let inv_samples = 1.0 / SAMPLES.len() as f32;
@@ -348,9 +427,9 @@ fn render_block<P: PlanarPattern, const C: usize>(
         let bg_start = (v * image_width + block.x0) * C;
         for ii in 0..block.width() {
             let k = jj * stride + ii;
-            let corners = [k, k + 1, k + stride, k + stride + 1].map(|k| scratch.corners[k]);
+            let corners = [k, k + 1, k + stride, k + stride + 1].map(|k| lane.corners[k]);
             let bg: [f32; C] = std::array::from_fn(|c| scene.background[bg_start + ii * C + c]);
-            let dst = &mut scratch.patch[row_start + ii * C..row_start + (ii + 1) * C];
+            let dst = &mut lane.patch[row_start + ii * C..row_start + (ii + 1) * C];
             if let Some(class) = resolved.uniform_class(corners) {
                 dst.copy_from_slice(if class == 0 { &bg } else { &resolved.classes[class as usize] });
                 continue;
@@ -379,7 +458,7 @@ fn blur_span<const C: usize>(
     kernel: &[f32],
     rect: PixelRect,
     span: PixelRect,
-    scratch: &mut BlockScratch,
+    lane: &mut Lane,
     target: &mut Target<'_>,
 ) {
     let r = kernel.len() / 2;
@@ -389,11 +468,11 @@ fn blur_span<const C: usize>(
     let row_len = (x1 - x0) * C;
     // Horizontal pass over the span's columns, for its rows and r rows around.
     let (hy0, hy1) = (y0.saturating_sub(r), (y1 + r).min(h));
-    scratch.horizontal.clear();
-    scratch.horizontal.resize((hy1 - hy0) * row_len, 0.0);
+    lane.horizontal.clear();
+    lane.horizontal.resize((hy1 - hy0) * row_len, 0.0);
     for y in hy0..hy1 {
-        let row = &scratch.patch[y * w * C..(y + 1) * w * C];
-        let out = &mut scratch.horizontal[(y - hy0) * row_len..(y - hy0 + 1) * row_len];
+        let row = &lane.patch[y * w * C..(y + 1) * w * C];
+        let out = &mut lane.horizontal[(y - hy0) * row_len..(y - hy0 + 1) * row_len];
         if x0 >= r && x1 + r <= w {
             // Interior: one multiply-add per tap over the whole row of the span.
             for (t, &k) in kernel.iter().enumerate() {
@@ -410,20 +489,18 @@ fn blur_span<const C: usize>(
         }
     }
     // Vertical pass, then fixed point, noise and quantisation into the frame.
-    scratch.fixed.resize(row_len, 0);
-    scratch.vertical.resize(row_len, 0.0);
+    lane.fixed.resize(row_len, 0);
+    lane.vertical.resize(row_len, 0.0);
     for y in y0..y1 {
-        let acc = &mut scratch.vertical;
+        let acc = &mut lane.vertical;
         acc.iter_mut().for_each(|a| *a = 0.0);
         for (t, &k) in kernel.iter().enumerate() {
             let ys = (y + t).saturating_sub(r).clamp(hy0, hy1 - 1) - hy0;
-            let src = &scratch.horizontal[ys * row_len..(ys + 1) * row_len];
+            let src = &lane.horizontal[ys * row_len..(ys + 1) * row_len];
             acc.iter_mut().zip(src).for_each(|(a, s)| *a += k * s);
         }
-        scratch.fixed.iter_mut().zip(acc.iter()).for_each(|(f, &v)| *f = to_fixed(v));
-        let start = ((rect.y0 + y) * target.image_width + rect.x0 + x0) * C;
-        let range = start..start + row_len;
-        quantise(&scratch.fixed, &target.noise[range.clone()], &mut target.data[range]);
+        lane.fixed.iter_mut().zip(acc.iter()).for_each(|(f, &v)| *f = to_fixed(v));
+        target.write(rect.x0 + x0, rect.y0 + y, C, &lane.fixed);
     }
 }
 
@@ -439,9 +516,8 @@ fn write_constant<const C: usize>(
     for _ in 0..block.width() {
         fixed.extend(colour.iter().map(|&v| to_fixed(v)));
     }
+    debug_assert_eq!(fixed.len(), row_len);
     for y in block.y0..block.y1 {
-        let start = (y * target.image_width + block.x0) * C;
-        let range = start..start + row_len;
-        quantise(fixed, &target.noise[range.clone()], &mut target.data[range]);
+        target.write(block.x0, y, C, fixed);
     }
 }

@@ -98,7 +98,7 @@ impl SimCameraRenderer {
             background_fixed,
             noise_fixed,
             kernel,
-            scratch: BlockScratch::default(),
+            scratch: BlockScratch::with_threads(several_cores()),
         })
     }
 
@@ -137,6 +137,13 @@ impl SimCameraRenderer {
     /// block renderer is checked against.
     pub fn set_exhaustive(&mut self, exhaustive: bool) {
         self.scratch.exhaustive = exhaustive;
+    }
+
+    /// With `two_threads` (the default where this process may run on two
+    /// cores or more), the lower half of the object's neighbourhood is drawn
+    /// on a second thread. The frames are the same either way.
+    pub fn set_two_threads(&mut self, two_threads: bool) {
+        self.scratch.two_threads = two_threads;
     }
 
     /// The camera pose in the hand frame.
@@ -221,11 +228,12 @@ impl SimCameraRenderer {
             camera_from_board.to_homogeneous().iter().fold(0u64, |h, v| splitmix64(h ^ v.to_bits()));
         let noise_key = splitmix64(self.seed ^ pose_bits);
         let drawn = Drawn { plane: &plane, pattern: &pattern, outline: &outline };
-        self.compose(Some(drawn), noise_key, &mut BlockScratch::default())
+        let mut scratch = BlockScratch::with_threads(self.scratch.two_threads);
+        self.compose(Some(drawn), noise_key, &mut scratch)
     }
 
     /// Background plus (optionally) one plane, blurred, noisy, quantised.
-    fn compose<P: PlanarPattern>(
+    fn compose<P: PlanarPattern + Sync>(
         &self,
         drawn: Option<Drawn<'_, P>>,
         noise_key: u64,
@@ -255,7 +263,7 @@ impl SimCameraRenderer {
             inner.grown(block_size + radius + 1, width, height)
         };
         let scene = Scene { map: &self.map, background: &self.background, kernel: &self.kernel };
-        let mut target = Target { data: &mut data, noise, image_width: width };
+        let mut target = Target { data: &mut data, noise, image_width: width, row0: 0 };
         if channels == 1 {
             draw_plane::<P, 1>(&scene, plane, pattern, rect, block_size, &mut target, scratch);
         } else {
@@ -268,6 +276,11 @@ impl SimCameraRenderer {
         let c = &self.config.intrinsics;
         Image { width: c.width, height: c.height, format: self.config.pixel_format, data }
     }
+}
+
+/// Whether this process may run on two cores or more.
+fn several_cores() -> bool {
+    std::thread::available_parallelism().is_ok_and(|n| n.get() >= 2)
 }
 
 /// A plane to draw over the background: where, what, and its outline in
