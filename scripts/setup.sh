@@ -5,6 +5,10 @@
 #   - a TrueType font (DejaVu) for the text of plots;
 #   - the kernel's user-space headers (linux/videodev2.h), from which the v4l
 #     crate generates its V4L2 bindings with libclang;
+#   - with --test (or --test-node): Node.js and npm (Debian's packages, when
+#     no `node` is installed) and the official Foxglove WebSocket client
+#     (@foxglove/ws-protocol, with ws), pinned by tests/node/package-lock.json,
+#     in target/node/node_modules, for the live view's open-protocol test;
 #   - with --test: a Python virtual environment (target/pyenv) holding the
 #     official MCAP reader and NumPy, minimalmodbus with pyserial (an
 #     independent Modbus RTU client for the emulated Robotiq gripper) and
@@ -13,7 +17,8 @@
 #     bindings (opencv-python-headless: the independent board poses of
 #     calibration/tests/board_python.rs), and PyTorch (the
 #     dEKF's PyTorch twin, scripts/dekf_torch_train.py, checked against the
-#     golden file by tests/dekf_golden.rs; from PyPI, about 5 GB, on CPU).
+#     golden file by tests/dekf_golden.rs; from PyPI, about 5 GB, on CPU),
+#     and rosbags (the independent ROS 2 bag reader of tests/ros2_bag.rs).
 # Runs apt-get through sudo only when not root. `--test` is `--test-system`
 # (the system packages, python3-venv included) followed by `--test-python`
 # (target/pyenv); scripts/test runs the second while the workspace compiles.
@@ -24,12 +29,14 @@ packages=(libopencv-dev libopencv-contrib-dev clang libclang-dev pkg-config font
 mode="${1:-}"
 system=1
 python=0
+node=0
 case "$mode" in
   "") ;;
-  --test) python=1 ;;
+  --test) python=1 node=1 ;;
   --test-system) ;;
   --test-python) system=0 python=1 ;;
-  *) echo "setup: unknown option $mode (use --test, --test-system or --test-python)" >&2; exit 2 ;;
+  --test-node) system=0 node=1 ;;
+  *) echo "setup: unknown option $mode (use --test, --test-system, --test-python or --test-node)" >&2; exit 2 ;;
 esac
 
 if [ "$mode" != "" ]; then
@@ -53,6 +60,32 @@ if [ "${#missing[@]}" -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
+# --- begin: Node.js and the Foxglove WebSocket client (--test, --test-node) ---
+# Debian's nodejs and npm when there is no `node`, then the packages pinned by
+# tests/node/package-lock.json into target/node (`npm ci`), again whenever the
+# lock file changes. tests/live.rs finds them there.
+if [ "$node" = 1 ]; then
+  if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+    if ! command -v apt-get >/dev/null; then
+      echo "setup: no node/npm and no apt-get here; install Node.js with your package manager" >&2
+      exit 1
+    fi
+    node_sudo=""
+    if [ "$(id -u)" -ne 0 ]; then node_sudo="sudo"; fi
+    echo "setup: installing nodejs and npm" >&2
+    $node_sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $node_sudo apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+  fi
+  if ! cmp -s tests/node/package-lock.json target/node/package-lock.json \
+    || [ ! -f target/node/node_modules/@foxglove/ws-protocol/package.json ]; then
+    echo "setup: installing @foxglove/ws-protocol into target/node" >&2
+    mkdir -p target/node
+    cp tests/node/package.json tests/node/package-lock.json target/node/
+    npm ci --prefix target/node --no-audit --no-fund --loglevel=error
+  fi
+fi
+# --- end: Node.js and the Foxglove WebSocket client ---
+
 if [ "$python" = 1 ]; then
   if [ ! -x target/pyenv/bin/python ] || ! target/pyenv/bin/python -c 'import mcap, numpy, minimalmodbus, serial, websockets' 2>/dev/null; then
     echo "setup: creating target/pyenv with the official mcap reader, numpy, minimalmodbus, pyserial and websockets" >&2
@@ -67,5 +100,9 @@ if [ "$python" = 1 ]; then
   if ! target/pyenv/bin/python -c 'import torch' 2>/dev/null; then
     echo "setup: installing torch into target/pyenv (the dEKF's PyTorch twin)" >&2
     target/pyenv/bin/python -m pip install -q 'torch==2.15.0'
+  fi
+  if ! target/pyenv/bin/python -c 'import rosbags' 2>/dev/null; then
+    echo "setup: installing rosbags into target/pyenv (the independent ROS 2 bag reader)" >&2
+    target/pyenv/bin/python -m pip install -q 'rosbags==0.11.9'
   fi
 fi

@@ -188,3 +188,84 @@ fn an_address_that_cannot_serve_is_one_line_before_the_trial() {
     let e = fails(&["play", s(&dir.path().join("missing.mcap")), "--live", "127.0.0.1:0"]);
     assert!(e.contains("missing.mcap"), "{e}");
 }
+
+/// `node` and the project's node_modules (`target/node/node_modules`, or
+/// `SLIDETRACK_NODE_MODULES`) holding the official `@foxglove/ws-protocol`
+/// client, made by `scripts/setup.sh --test`; `None` (the test then skips,
+/// saying why) when either is missing.
+fn node_with_ws_protocol() -> Option<(PathBuf, PathBuf)> {
+    let modules = std::env::var_os("SLIDETRACK_NODE_MODULES").map_or_else(
+        || Path::new(env!("CARGO_MANIFEST_DIR")).join("target/node/node_modules"),
+        PathBuf::from,
+    );
+    let node = std::env::var_os("PATH")
+        .and_then(|paths| std::env::split_paths(&paths).map(|p| p.join("node")).find(|p| p.is_file()));
+    match node {
+        Some(node) if modules.join("@foxglove/ws-protocol/package.json").is_file() => Some((node, modules)),
+        Some(_) => {
+            eprintln!(
+                "skipped: no @foxglove/ws-protocol in {} (run scripts/setup.sh --test)",
+                modules.display()
+            );
+            None
+        }
+        None => {
+            eprintln!("skipped: no `node` on PATH (run scripts/setup.sh --test)");
+            None
+        }
+    }
+}
+
+#[test]
+fn the_official_open_protocol_client_gets_the_recorded_bytes() {
+    let Some((node, modules)) = node_with_ws_protocol() else { return };
+    let dir = tempdir();
+    let out = dir.path().join("sessions");
+    // Several trials as fast as the simulator goes (a real-time trial on a
+    // loaded machine may abort at once on stale data): the client connects
+    // during one of them and gets what the live view sends it.
+    let args = ["-q", "collect", "--seed", "4", "--trials", "3", "--duration", "6"];
+    let (mut child, addr) = spawn_live(
+        &[&args[..], &["--out", s(&out), "--live", "127.0.0.1:0", "--live-image-hz", "0"]].concat(),
+    );
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/node/live_client_open.js");
+    let record_path = dir.path().join("open_client.json");
+    let client = std::process::Command::new(node)
+        .env("NODE_PATH", &modules)
+        .arg(script)
+        .arg(format!("ws://{addr}"))
+        .arg(&record_path)
+        .args(["3", "30"])
+        .output()
+        .expect("node runs");
+    assert!(child.wait().expect("collect exits").success());
+    assert!(client.status.success(), "client: {}", String::from_utf8_lossy(&client.stderr));
+    let text = std::fs::read_to_string(&record_path).expect("client record");
+    let record: serde_json::Value = serde_json::from_str(&text).expect("client record is JSON");
+    assert_eq!(record["subprotocol"], "foxglove.websocket.v1", "{}", record["errors"]);
+    let in_file: std::collections::HashSet<_> = std::fs::read_dir(&out)
+        .expect("sessions")
+        .flat_map(|f| {
+            MessageReader::open(f.expect("entry").path(), &[], ReadOptions::default()).expect("session")
+        })
+        .map(|m| m.expect("message"))
+        .map(|m| (m.channel.topic.clone(), m.log_time, m.data))
+        .collect();
+    let mut per_topic = std::collections::BTreeMap::<String, usize>::new();
+    for m in record["messages"].as_array().expect("messages") {
+        let topic = m["topic"].as_str().expect("topic").to_string();
+        let log_time = TimeNs(m["log_time"].as_str().expect("log time").parse().expect("u64"));
+        let data = from_hex(m["data"].as_str().expect("data"));
+        assert!(
+            in_file.contains(&(topic.clone(), log_time, data)),
+            "{topic} at {log_time:?}: not the file's bytes"
+        );
+        *per_topic.entry(topic).or_default() += 1;
+    }
+    assert!(per_topic.get("/tactile/raw").copied().unwrap_or(0) > 20, "{per_topic:?}");
+}
+
+/// The bytes of a hex string (the Node client's record).
+fn from_hex(hex: &str) -> Vec<u8> {
+    (0..hex.len()).step_by(2).map(|i| u8::from_str_radix(&hex[i..i + 2], 16).expect("hex")).collect()
+}

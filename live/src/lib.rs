@@ -10,6 +10,7 @@
 mod address;
 mod background;
 mod error;
+mod front_door;
 mod player;
 mod player_clock;
 mod probe;

@@ -24,6 +24,7 @@ use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
 
 use super::address::resolve_addr;
 use super::error::LiveError;
+use super::front_door;
 use super::player_clock::PlayClock;
 use super::server::stop_server;
 
@@ -322,18 +323,32 @@ pub fn play(
     let range = lock(&player).range;
     let controls = Arc::new(Controls { player: Arc::clone(&player), subscribed: AtomicBool::new(false) });
     let name = path.file_name().map_or_else(|| "session".into(), |n| n.to_string_lossy().into_owned());
-    let server = WebSocketServer::new()
+    // The server's runtime, with the front door (see `front_door.rs`) in front of it.
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .thread_name("live-play")
+        .enable_all()
+        .build()
+        .map_err(LiveError::Thread)?;
+    let door = runtime
+        .block_on(tokio::net::TcpListener::bind(requested))
+        .map_err(|source| LiveError::Bind { addr: requested, source })?;
+    let addr = door.local_addr().map_err(|source| LiveError::Bind { addr: requested, source })?;
+    let starting = WebSocketServer::new()
         .name(name)
         .context(&context)
         .capabilities([Capability::PlaybackControl, Capability::Time])
         .playback_time_range(range.0, range.1)
         .listener(Arc::clone(&controls) as Arc<dyn ServerListener>)
-        .bind(requested.ip().to_string(), requested.port())
-        .start_blocking()
-        .map_err(|e| LiveError::starting(requested, e))?;
-    listening(SocketAddr::new(requested.ip(), server.port()));
+        .tokio_runtime(runtime.handle())
+        .bind(front_door::BACKEND_HOST, 0)
+        .start();
+    let server = runtime.block_on(starting).map_err(|e| LiveError::starting(requested, e))?;
+    runtime.spawn(front_door::serve(door, front_door::backend_addr(server.port())));
+    listening(addr);
     let result = run(&server, &player, &controls, options, stop);
     stop_server(server);
+    runtime.shutdown_background();
     result
 }
 

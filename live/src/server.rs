@@ -13,6 +13,7 @@ use slidetrack_session::{LiveReceiver, LiveTap, LiveTapStats};
 use super::address::resolve_addr;
 use super::background::{BackgroundRuntime, run_behind_the_recording};
 use super::error::LiveError;
+use super::front_door;
 use super::publisher::{NewSubscriber, Publisher, PublisherStats};
 
 /// Longest wait for the server's connections to close at shutdown: a viewer
@@ -104,6 +105,8 @@ pub struct LiveServer {
     publisher: Option<JoinHandle<(Publisher, LiveReceiver)>>,
     /// The server's runtime, driven at nice 19 until shutdown.
     runtime: BackgroundRuntime,
+    /// The front door's accepting task (see `front_door.rs`).
+    front_door: tokio::task::JoinHandle<()>,
 }
 
 /// Turns the tap on while at least one channel has a subscriber, and tells
@@ -141,17 +144,24 @@ impl LiveServer {
         let (new_subscribers, subscribed) = crossbeam_channel::unbounded();
         let listener =
             Arc::new(Subscriptions { active: AtomicUsize::new(0), tap: tap.clone(), new_subscribers });
+        // Viewers connect to the front door, which relays them to the SDK's
+        // server on loopback (and lets `foxglove.websocket.v1` in).
+        let door = runtime
+            .block_on(tokio::net::TcpListener::bind(requested))
+            .map_err(|source| LiveError::Bind { addr: requested, source })?;
+        let addr = door.local_addr().map_err(|source| LiveError::Bind { addr: requested, source })?;
         let starting = WebSocketServer::new()
             .name(format!("slidetrack {}", env!("CARGO_PKG_VERSION")))
             .context(&context)
             .listener(listener)
             .message_backlog_size(options.viewer_backlog.max(1))
             .tokio_runtime(runtime.handle())
-            .bind(requested.ip().to_string(), requested.port())
+            .bind(front_door::BACKEND_HOST, 0)
             .start();
         let server = runtime.block_on(starting).map_err(|e| LiveError::starting(requested, e))?;
+        let front_door =
+            runtime.handle().spawn(front_door::serve(door, front_door::backend_addr(server.port())));
         runtime.drive_in_background()?;
-        let addr = SocketAddr::new(requested.ip(), server.port());
         let server = Arc::new(server);
         let stop = Arc::new(AtomicBool::new(false));
         let mut publisher = Publisher::new(context, Arc::clone(&server), options.image_max_hz, subscribed);
@@ -166,7 +176,7 @@ impl LiveServer {
                 })
                 .map_err(LiveError::Thread)?
         };
-        Ok(LiveServer { server, addr, tap, stop, publisher: Some(thread), runtime })
+        Ok(LiveServer { server, addr, tap, stop, publisher: Some(thread), runtime, front_door })
     }
 
     /// The address viewers connect to (the bound port when 0 was asked).
@@ -197,7 +207,7 @@ impl LiveServer {
     /// recorder's statistics) and receive the last messages, and stops the
     /// server, all at the caller's priority.
     pub fn shutdown(self) -> LiveStats {
-        let LiveServer { server, tap, stop, publisher, mut runtime, .. } = self;
+        let LiveServer { server, tap, stop, publisher, mut runtime, front_door, .. } = self;
         stop.store(true, Ordering::Release);
         let publisher = publisher.and_then(|t| t.join().ok());
         runtime.hand_over();
@@ -207,6 +217,7 @@ impl LiveServer {
             runtime.block_on(catch_up(&mut publisher, &rx, grace));
             stats = publisher.stats();
         }
+        front_door.abort();
         // The publisher has let go of its handle.
         if let Ok(server) = Arc::try_unwrap(server) {
             let stopping = server.stop();

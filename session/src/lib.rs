@@ -4,7 +4,8 @@
 //! - [`Recorder`] writes a session on its own thread (zstd chunks closed at
 //!   least every second, so a killed process leaves a readable prefix).
 //! - [`SessionInfo`], [`MessageReader`] and [`read_json`] read one back with
-//!   bounded memory; [`export_csv`] flattens a channel to CSV. The
+//!   bounded memory; [`export_csv`] flattens a channel to CSV, and
+//!   [`export_ros2_bag`] writes a session as a ROS 2 bag. The
 //!   `from_reader` variants read a session from memory (any `Read + Seek`).
 //! - The message types of the channels are in [`messages`] and [`vision`];
 //!   the format is documented in `docs/session-format.md`.
@@ -23,6 +24,7 @@ mod reader;
 mod recorder;
 mod records;
 mod rewrite;
+pub mod ros2;
 mod scan;
 mod schema;
 mod shared;
@@ -57,6 +59,7 @@ pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionO
 pub use reader::{MessageReader, ReadOptions, read_channel, read_json, release_time};
 pub use recorder::Recorder;
 pub use rewrite::{NewChannel, NewMessage, RewriteReport, rewrite_session};
+pub use ros2::{Ros2BagReport, export_ros2_bag};
 pub use schema::JSON_SCHEMA_DIALECT;
 pub use stored::{AttachmentSummary, ChannelDesc, RawMessage};
 pub use summary::{ChannelSummary, SessionInfo};

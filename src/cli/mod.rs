@@ -251,5 +251,8 @@ mod tests {
     fn export_needs_a_channel() {
         assert!(Cli::try_parse_from(["slidetrack", "export", "x.mcap"]).is_err());
         assert!(Cli::try_parse_from(["slidetrack", "export", "x.mcap", "--channel", "/tactile/raw"]).is_ok());
+        assert!(Cli::try_parse_from(["slidetrack", "export", "x.mcap", "--ros2-bag", "b.mcap"]).is_ok());
+        let both = ["slidetrack", "export", "x.mcap", "--ros2-bag", "b.mcap", "--channel", "/tactile/raw"];
+        assert!(Cli::try_parse_from(both).is_err(), "one export at a time");
     }
 }

@@ -23,9 +23,13 @@ pub struct InfoArgs {
 pub struct ExportArgs {
     /// Session file (.mcap).
     pub file: PathBuf,
-    /// Channel (topic) to export, e.g. /tactile/raw.
-    #[arg(long)]
-    pub channel: String,
+    /// Channel (topic) to export as CSV on stdout, e.g. /tactile/raw.
+    #[arg(long, required_unless_present = "ros2_bag", conflicts_with = "ros2_bag")]
+    pub channel: Option<String>,
+    /// Write the session as a ROS 2 bag (MCAP, CDR, ros2msg schemas) to this
+    /// file instead (see docs/session-format.md, "As a ROS 2 bag").
+    #[arg(long, value_name = "OUT.mcap")]
+    pub ros2_bag: Option<PathBuf>,
     /// Read a truncated file (writer killed) up to its last complete chunk.
     #[arg(long)]
     pub recover: bool,
