@@ -44,7 +44,7 @@ fn run_in(args: &BenchArgs, dir: &std::path::Path) -> Result<()> {
         let mut fit = |spec: &TrainSpec, sessions: &[SessionData]| {
             super::train::fit_with_progress(spec, sessions, quiet)
         };
-        let r = dekf::training(dir, args.runs.clamp(1, 3), args.threads, &mut fit)?;
+        let r = dekf::training(dir, args.runs.clamp(1, 3), args.threads, args.sessions, &mut fit)?;
         if !args.json {
             println!("{}", dekf::describe(&r));
         }
