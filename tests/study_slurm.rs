@@ -41,20 +41,21 @@ fn args(sessions: &Path, out: &Path) -> Vec<String> {
 
 /// A local run of the study, once per test binary.
 struct Local {
-    _dir: tempfile::TempDir,
     sessions: PathBuf,
     out: PathBuf,
 }
 
-/// The local run: its sessions (which the Slurm runs reuse) and its output.
+/// The local run (in the target's test directory, replaced on each run of
+/// the tests): its sessions, which the Slurm runs reuse, and its output.
 fn local() -> &'static Local {
     static LOCAL: OnceLock<Local> = OnceLock::new();
     LOCAL.get_or_init(|| {
-        let dir = tempdir();
-        let (sessions, out) = (dir.path().join("sessions"), dir.path().join("local"));
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("study_slurm");
+        let _ = std::fs::remove_dir_all(&dir);
+        let (sessions, out) = (dir.join("sessions"), dir.join("local"));
         let a = args(&sessions, &out);
         ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
-        Local { _dir: dir, sessions, out }
+        Local { sessions, out }
     })
 }
 
@@ -81,7 +82,8 @@ fn assert_same_as_local(out: &Path) {
     let md = |o: &Path| std::fs::read_to_string(o.join("tables.md")).expect("tables.md");
     assert_eq!(md(local), md(out), "tables.md");
     let tables = |o: &Path| -> Value {
-        serde_json::from_str(&std::fs::read_to_string(o.join("tables.json")).expect("tables.json")).expect("json")
+        serde_json::from_str(&std::fs::read_to_string(o.join("tables.json")).expect("tables.json"))
+            .expect("json")
     };
     let (t, u) = (tables(local), tables(out));
     assert_eq!(t["tables"], u["tables"]);
@@ -91,7 +93,8 @@ fn assert_same_as_local(out: &Path) {
 /// Writes the executor's settings: quick polling, a short grace for results.
 fn settings(dir: &Path) -> PathBuf {
     let path = dir.join("slurm.toml");
-    std::fs::write(&path, "poll_s = 0.2\nresult_grace_s = 1.0\nretries = 2\ntime = \"00:10:00\"\n").expect("toml");
+    std::fs::write(&path, "poll_s = 0.2\nresult_grace_s = 1.0\nretries = 2\ntime = \"00:10:00\"\n")
+        .expect("toml");
     path
 }
 
@@ -145,7 +148,8 @@ fn a_task_cancelled_mid_run_is_retried_and_the_results_are_unchanged() {
     let dir = tempdir();
     let out = dir.path().join("slurm");
     let a = slurm_args(&out, &settings(dir.path()));
-    let study = slidetrack().args(&a).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("study starts");
+    let study =
+        slidetrack().args(&a).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("study starts");
     let submitted = out.join("work/slurm/submitted.json");
     let started = Instant::now();
     let cancelled = loop {
@@ -171,7 +175,8 @@ fn a_task_cancelled_mid_run_is_retried_and_the_results_are_unchanged() {
     let report: Value = serde_json::from_slice(&output.stdout).expect("--json report");
     let job = &report["jobs"][12];
     assert_eq!(job["name"], "all-xy");
-    let tasks: Vec<&str> = job["slurm_tasks"].as_array().expect("tasks").iter().filter_map(Value::as_str).collect();
+    let tasks: Vec<&str> =
+        job["slurm_tasks"].as_array().expect("tasks").iter().filter_map(Value::as_str).collect();
     assert_eq!(tasks.len(), 2, "cancelled {cancelled}; {job}");
     assert_eq!(tasks[0], cancelled);
     assert_eq!(job["attempts"], 2);

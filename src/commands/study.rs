@@ -52,9 +52,9 @@ pub fn run(args: &StudyArgs, quiet: bool) -> Result<()> {
     let (s, schedule) = spec(args)?;
     let executor = match args.executor {
         ExecutorArg::Local => Executor::Local,
-        ExecutorArg::Slurm => {
-            Executor::Slurm(args.slurm.as_deref().map_or_else(|| Ok(SlurmConfig::default()), SlurmConfig::read)?)
-        }
+        ExecutorArg::Slurm => Executor::Slurm(
+            args.slurm.as_deref().map_or_else(|| Ok(SlurmConfig::default()), SlurmConfig::read)?,
+        ),
     };
     let work_dir = args.work_dir.clone().unwrap_or_else(|| s.out.join("work"));
     let stop = super::stop_flag(super::RELEASING);
@@ -92,7 +92,12 @@ pub fn run(args: &StudyArgs, quiet: bool) -> Result<()> {
 /// `slidetrack study-job WORK INDEX`: one job of a study's work directory.
 pub fn run_job(args: &StudyJobArgs) -> Result<()> {
     let result = executor::run_job(&args.work_dir, args.index)?;
-    eprintln!("job {} done on {} in {:.1} s", result.name, result.host, result.finished_unix_s - result.started_unix_s);
+    eprintln!(
+        "job {} done on {} in {:.1} s",
+        result.name,
+        result.host,
+        result.finished_unix_s - result.started_unix_s
+    );
     Ok(())
 }
 

@@ -238,11 +238,8 @@ pub fn train_and_score(spec: &ModelSpec, sets: &Sets, s: &StudySpec) -> Result<O
     let mut scores = Vec::new();
     for (object, on_training_set) in scored_on(spec) {
         let test = mean_of(model, &linear, &sets[&(object, true)])?;
-        let train = if on_training_set {
-            Some(mean_of(model, &linear, &sets[&(object, false)])?)
-        } else {
-            None
-        };
+        let train =
+            if on_training_set { Some(mean_of(model, &linear, &sets[&(object, false)])?) } else { None };
         scores.push((object, train, test));
     }
     eprintln!(

@@ -96,10 +96,8 @@ fn sha256_file(path: &Path) -> Result<String, ExecutorError> {
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), ExecutorError> {
-    write_atomically(path, bytes).map_err(|e| ExecutorError::Io {
-        path: path.into(),
-        source: std::io::Error::other(format!("{e:#}")),
-    })
+    write_atomically(path, bytes)
+        .map_err(|e| ExecutorError::Io { path: path.into(), source: std::io::Error::other(format!("{e:#}")) })
 }
 
 fn now_unix_s() -> f64 {
@@ -187,7 +185,9 @@ impl Plan {
             }
         }
         let names: Vec<String> = (0..self.jobs.len())
-            .map(|i| self.job_path(i).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+            .map(|i| {
+                self.job_path(i).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+            })
             .collect();
         let plan = serde_json::json!({ "jobs": names });
         write(&self.work_dir.join("plan.json"), format!("{plan:#}\n").as_bytes())
@@ -197,8 +197,12 @@ impl Plan {
     pub fn read(work_dir: &Path) -> Result<Plan, ExecutorError> {
         let plan_path = work_dir.join("plan.json");
         let text = std::fs::read_to_string(&plan_path).map_err(io(&plan_path))?;
-        let parse = |path: &Path, e: serde_json::Error| ExecutorError::Parse { path: path.into(), message: e.to_string() };
-        let plan: BTreeMap<String, Vec<String>> = serde_json::from_str(&text).map_err(|e| parse(&plan_path, e))?;
+        let parse = |path: &Path, e: serde_json::Error| ExecutorError::Parse {
+            path: path.into(),
+            message: e.to_string(),
+        };
+        let plan: BTreeMap<String, Vec<String>> =
+            serde_json::from_str(&text).map_err(|e| parse(&plan_path, e))?;
         let mut jobs = Vec::new();
         for name in plan.get("jobs").into_iter().flatten() {
             let path = work_dir.join("jobs").join(name);
@@ -249,7 +253,8 @@ impl Plan {
     /// writes its result.
     pub fn execute(&self, index: usize, sets: &Sets) -> Result<JobResult, ExecutorError> {
         let job = &self.jobs[index];
-        let failed = |e: anyhow::Error| ExecutorError::Job { name: job.name.clone(), message: format!("{e:#}") };
+        let failed =
+            |e: anyhow::Error| ExecutorError::Job { name: job.name.clone(), message: format!("{e:#}") };
         let started_unix_s = now_unix_s();
         let spec = job.model(&self.job_path(index))?;
         let outcome = train_and_score(&spec, sets, &job.study).map_err(failed)?;
@@ -269,10 +274,8 @@ impl Plan {
             started_unix_s,
             finished_unix_s: now_unix_s(),
         };
-        let text = serde_json::to_string_pretty(&result).map_err(|e| ExecutorError::Job {
-            name: job.name.clone(),
-            message: e.to_string(),
-        })?;
+        let text = serde_json::to_string_pretty(&result)
+            .map_err(|e| ExecutorError::Job { name: job.name.clone(), message: e.to_string() })?;
         write(&self.result_path(index), format!("{text}\n").as_bytes())?;
         Ok(result)
     }

@@ -22,7 +22,12 @@ pub fn run_local(
     let pending = plan.pending();
     let done = AtomicUsize::new(plan.jobs.len() - pending.len());
     let report = |done: usize| {
-        progress(&Progress { jobs: plan.jobs.len(), done, running: threads.min(plan.jobs.len() - done), ..Progress::default() })
+        progress(&Progress {
+            jobs: plan.jobs.len(),
+            done,
+            running: threads.min(plan.jobs.len() - done),
+            ..Progress::default()
+        })
     };
     report(done.load(Ordering::SeqCst));
     parallel("train", &pending, threads, stop, |&index| {

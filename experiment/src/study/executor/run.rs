@@ -60,5 +60,10 @@ pub fn run_study(
     }
     let sessions_per_object =
         OBJECTS.iter().map(|o| (*o, sets[&(*o, false)].len() + sets[&(*o, true)].len())).collect();
-    Ok(StudyRun { tables, models: outcomes.into_iter().map(|o| o.summary).collect(), jobs, sessions_per_object })
+    Ok(StudyRun {
+        tables,
+        models: outcomes.into_iter().map(|o| o.summary).collect(),
+        jobs,
+        sessions_per_object,
+    })
 }

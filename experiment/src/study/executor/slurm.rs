@@ -55,7 +55,12 @@ pub fn script(config: &SlurmConfig, threads: usize, binary: &Path, work_dir: &Pa
     opt(format!("--cpus-per-task={threads}"));
     opt(format!("--output={}", work_dir.join("slurm/logs/%A_%a.out").display()));
     opt(format!("--chdir={}", cwd.display()));
-    for (name, value) in [("partition", &config.partition), ("account", &config.account), ("time", &config.time), ("mem", &config.mem)] {
+    for (name, value) in [
+        ("partition", &config.partition),
+        ("account", &config.account),
+        ("time", &config.time),
+        ("mem", &config.mem),
+    ] {
         if let Some(v) = value {
             opt(format!("--{name}={v}"));
         }
@@ -220,7 +225,8 @@ pub fn run_slurm(
     };
     let pending_at_start = plan.pending();
     ex.adopt(&pending_at_start)?;
-    let fresh: Vec<usize> = pending_at_start.iter().copied().filter(|i| !ex.tracked.contains_key(i)).collect();
+    let fresh: Vec<usize> =
+        pending_at_start.iter().copied().filter(|i| !ex.tracked.contains_key(i)).collect();
     if !fresh.is_empty() {
         ex.submit(&fresh)?;
     }
@@ -253,7 +259,11 @@ pub fn run_slurm(
         progress(&Progress { jobs: plan.jobs.len(), done, running, pending, retried, slurm_jobs });
     }
     if !failed.is_empty() {
-        return Err(ExecutorError::Failed { failed, attempts: config.retries + 1, logs: ex.dir.join("logs") });
+        return Err(ExecutorError::Failed {
+            failed,
+            attempts: config.retries + 1,
+            logs: ex.dir.join("logs"),
+        });
     }
     Ok(ex.reports(&pending_at_start))
 }
@@ -272,10 +282,19 @@ mod tests {
         };
         let s = script(&config, 2, Path::new("/opt/bin/slidetrack"), Path::new("/w/it's"), Path::new("/w"));
         assert!(s.starts_with("#!/bin/sh\n"), "{s}");
-        for line in ["#SBATCH --cpus-per-task=2", "#SBATCH --partition=cpu", "#SBATCH --time=00:30:00", "#SBATCH --qos=short", "#SBATCH --chdir=/w"] {
+        for line in [
+            "#SBATCH --cpus-per-task=2",
+            "#SBATCH --partition=cpu",
+            "#SBATCH --time=00:30:00",
+            "#SBATCH --qos=short",
+            "#SBATCH --chdir=/w",
+        ] {
             assert!(s.lines().any(|l| l == line), "{line} missing from\n{s}");
         }
         assert!(!s.contains("--account") && !s.contains("--mem"), "{s}");
-        assert!(s.ends_with("exec '/opt/bin/slidetrack' -q study-job '/w/it'\\''s' \"$SLURM_ARRAY_TASK_ID\"\n"), "{s}");
+        assert!(
+            s.ends_with("exec '/opt/bin/slidetrack' -q study-job '/w/it'\\''s' \"$SLURM_ARRAY_TASK_ID\"\n"),
+            "{s}"
+        );
     }
 }

@@ -62,11 +62,17 @@ pub fn squeue(jobs: &[u64]) -> Result<BTreeMap<TaskId, String>, ExecutorError> {
         return Ok(BTreeMap::new());
     }
     let ids: Vec<String> = jobs.iter().map(u64::to_string).collect();
-    let args = ["-h", "-r", "-o", "%i|%T", "-j"].iter().map(|s| s.to_string()).chain([ids.join(",")]).collect::<Vec<_>>();
+    let args = ["-h", "-r", "-o", "%i|%T", "-j"]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([ids.join(",")])
+        .collect::<Vec<_>>();
     match run("squeue", &args) {
         Ok(out) => Ok(parse_squeue(&out)),
         // Every id purged from the controller's memory (MinJobAge).
-        Err(ExecutorError::Slurm { message, .. }) if message.contains("Invalid job id") => Ok(BTreeMap::new()),
+        Err(ExecutorError::Slurm { message, .. }) if message.contains("Invalid job id") => {
+            Ok(BTreeMap::new())
+        }
         Err(e) => Err(e),
     }
 }
@@ -109,8 +115,18 @@ pub fn is_active(state: &str) -> bool {
     let state = state.split_whitespace().next().unwrap_or("");
     matches!(
         state,
-        "PENDING" | "RUNNING" | "CONFIGURING" | "COMPLETING" | "SUSPENDED" | "REQUEUED" | "REQUEUE_HOLD"
-            | "REQUEUE_FED" | "RESIZING" | "SIGNALING" | "STAGE_OUT" | "STOPPED"
+        "PENDING"
+            | "RUNNING"
+            | "CONFIGURING"
+            | "COMPLETING"
+            | "SUSPENDED"
+            | "REQUEUED"
+            | "REQUEUE_HOLD"
+            | "REQUEUE_FED"
+            | "RESIZING"
+            | "SIGNALING"
+            | "STAGE_OUT"
+            | "STOPPED"
     )
 }
 
@@ -158,7 +174,12 @@ mod tests {
             assert_eq!(t.get(&(12, i)).map(String::as_str), Some("PENDING"), "{i}");
         }
         assert_eq!(t.len(), 6);
-        assert!(is_active("COMPLETING") && is_active("PENDING") && !is_active("CANCELLED") && !is_active("FAILED"));
+        assert!(
+            is_active("COMPLETING")
+                && is_active("PENDING")
+                && !is_active("CANCELLED")
+                && !is_active("FAILED")
+        );
         assert!(!is_active("CANCELLED by 0"));
     }
 
