@@ -65,7 +65,7 @@ fn models(out: &Path) -> BTreeMap<String, Vec<u8>> {
         .expect("models directory")
         .map(|e| e.expect("entry").path())
         .filter(|p| p.extension().is_some_and(|e| e == "safetensors"))
-        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).expect("model")))
+        .map(|p| (p.file_name().expect("file name").to_string_lossy().into_owned(), std::fs::read(&p).expect("model")))
         .collect()
 }
 
@@ -124,7 +124,7 @@ fn slurm_study_equals_the_local_run_and_resumes_from_its_results() {
     for j in jobs {
         let tasks = j["slurm_tasks"].as_array().expect("slurm_tasks");
         assert_eq!(tasks.len(), 1, "{j}");
-        assert!(tasks[0].as_str().unwrap().ends_with(&format!("_{}", j["index"])), "{j}");
+        assert!(tasks[0].as_str().expect("task id").ends_with(&format!("_{}", j["index"])), "{j}");
         assert!(j["finished_unix_s"].as_f64() >= j["started_unix_s"].as_f64(), "{j}");
         assert_eq!(j["reused"], false);
     }

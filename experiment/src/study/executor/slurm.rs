@@ -35,6 +35,18 @@ struct Submitted {
     arrays: Vec<Submission>,
 }
 
+/// One look at the queue.
+struct Look {
+    /// Jobs whose result appeared.
+    done: Vec<usize>,
+    /// Jobs whose task left the queue without a result, with its last state.
+    lost: Vec<(usize, String)>,
+    /// Tasks running.
+    running: usize,
+    /// Tasks pending.
+    pending: usize,
+}
+
 /// A task being waited for.
 struct Tracked {
     job_id: u64,
@@ -136,7 +148,7 @@ impl Executor<'_> {
 
     /// One look at the queue: the jobs done, lost (with their last state)
     /// and the tasks running and pending.
-    fn poll(&mut self) -> Result<(Vec<usize>, Vec<(usize, String)>, usize, usize), ExecutorError> {
+    fn poll(&mut self) -> Result<Look, ExecutorError> {
         let ids: BTreeSet<u64> = self.tracked.values().map(|t| t.job_id).collect();
         let queue = squeue(&ids.into_iter().collect::<Vec<_>>())?;
         let grace = Duration::from_secs_f64(self.config.result_grace_s);
@@ -162,7 +174,7 @@ impl Executor<'_> {
         for i in done.iter().chain(lost.iter().map(|(i, _)| i)) {
             self.tracked.remove(i);
         }
-        Ok((done, lost, running, pending))
+        Ok(Look { done, lost, running, pending })
     }
 
     fn job_ids(&self) -> Vec<String> {
@@ -241,7 +253,7 @@ pub fn run_slurm(
             return Err(ExecutorError::Interrupted { left });
         }
         std::thread::sleep(Duration::from_secs_f64(config.poll_s));
-        let (finished, lost, running, pending) = ex.poll()?;
+        let Look { done: finished, lost, running, pending } = ex.poll()?;
         done += finished.len();
         let mut again = Vec::new();
         for (index, state) in lost {
