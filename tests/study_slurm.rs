@@ -65,7 +65,12 @@ fn models(out: &Path) -> BTreeMap<String, Vec<u8>> {
         .expect("models directory")
         .map(|e| e.expect("entry").path())
         .filter(|p| p.extension().is_some_and(|e| e == "safetensors"))
-        .map(|p| (p.file_name().expect("file name").to_string_lossy().into_owned(), std::fs::read(&p).expect("model")))
+        .map(|p| {
+            (
+                p.file_name().expect("file name").to_string_lossy().into_owned(),
+                std::fs::read(&p).expect("model"),
+            )
+        })
         .collect()
 }
 
