@@ -74,7 +74,8 @@ impl ChannelSet {
 pub const THESIS_GROUND_TRUTH_TOPIC: &str = GroundTruthSlot::Thesis.sliding_topic();
 
 /// Which truth to train and score against.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum TruthSource {
     /// `/ground_truth/planar` from `slidetrack label`: the object's motion in
     /// the contact plane during the hold (the truth of planar models).

@@ -304,7 +304,7 @@ pub fn estimate_metadata(model: &DekfModel, model_name: &str) -> Result<[BTreeMa
 }
 
 /// Errors of one session (Table 6.1 metrics), in cm and cm/s.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
 pub struct Scores {
     /// Position RMSE (cm).
     pub position_rmse_cm: f64,

@@ -13,7 +13,7 @@ use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
 use crate::dekf_train::{DEFAULT_POSITION_SHIFT_CM, TrainSpec};
 
 /// A labelling and training protocol.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Protocol {
     /// This project's: the smoother's defaults with the 5-sigma gate on

@@ -316,6 +316,42 @@ pub struct StudyArgs {
     /// Trainings run at the same time, one core each (0: every core).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Where the trainings run: `local` (here) or `slurm` (a Slurm job
+    /// array, one task per model; see `--slurm` and `docs/cluster.md`).
+    #[arg(long, value_enum, default_value_t = ExecutorArg::Local)]
+    pub executor: ExecutorArg,
+    /// Directory of the study's jobs: job files, results, Slurm scripts
+    /// and logs (default `OUT/work`). A study run again runs only the jobs
+    /// without a valid result there.
+    #[arg(long)]
+    pub work_dir: Option<PathBuf>,
+    /// Settings of `--executor slurm` (TOML: partition, account, time, mem,
+    /// sbatch_options, retries, ...; `docs/cluster.md`).
+    #[arg(long)]
+    pub slurm: Option<PathBuf>,
+    /// Print a JSON report (each job's Slurm task ids, host and times, and
+    /// the tables' files) instead of the tables.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Where `study` runs its trainings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ExecutorArg {
+    /// Here, `--threads` at a time.
+    Local,
+    /// As a Slurm job array.
+    Slurm,
+}
+
+/// Arguments of the hidden `study-job`: one job of a study's work
+/// directory, as a Slurm task runs it.
+#[derive(Debug, Args, Clone)]
+pub struct StudyJobArgs {
+    /// The study's work directory.
+    pub work_dir: PathBuf,
+    /// The job's index (the array task id).
+    pub index: usize,
 }
 
 impl From<MeasurementArg> for Measurement {

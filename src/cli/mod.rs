@@ -85,6 +85,9 @@ pub enum Command {
     Track(TrackArgs),
     /// The experiments of thesis Sec. 6.3 on the simulated rig: Tables 6.1-6.4.
     Study(StudyArgs),
+    /// One job of a study's work directory (what a Slurm task of `study --executor slurm` runs).
+    #[command(hide = true)]
+    StudyJob(StudyJobArgs),
     /// Turn captured tactile traffic (candump log, raw serial bytes) into a session.
     Decode(DecodeArgs),
     /// Turn recordings made elsewhere (the xela-imanlab and xela-psc CSVs) into sessions.

@@ -22,6 +22,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Slip(args) => super::slip::run(&args),
         Command::Track(args) => super::track::run(&args, quiet),
         Command::Study(args) => super::study::run(&args, quiet),
+        Command::StudyJob(args) => super::study::run_job(&args),
         Command::Vision(args) => super::vision::run(&args, quiet),
         Command::Label(args) => super::label::run(&args, quiet),
         Command::Calibrate(args) => super::calibrate::run(&args, quiet),

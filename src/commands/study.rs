@@ -2,19 +2,21 @@
 //! rig (see `slidetrack_experiment::study`), with the tables written to
 //! `tables.md` and `tables.json`.
 
-use std::collections::BTreeMap;
 use std::path::Path;
+use std::time::Instant;
 
 use anyhow::{Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 use slidetrack_experiment::dataset::TruthSource;
 use slidetrack_experiment::dekf_run::write_atomically;
 use slidetrack_experiment::dekf_train::{TrainSpec, parse_schedule};
-use slidetrack_experiment::pipeline::{parallel, threads};
+use slidetrack_experiment::pipeline::threads;
 use slidetrack_experiment::protocol::Protocol;
-use slidetrack_experiment::study::{OBJECTS, StudySpec, Tables, data, models, train_and_score};
+use slidetrack_experiment::study::executor::{self, Executor, Progress, SlurmConfig, run_study};
+use slidetrack_experiment::study::{StudySpec, Tables};
 
-use crate::cli::StudyArgs;
+use crate::cli::{ExecutorArg, StudyArgs, StudyJobArgs};
 
 /// The study `args` ask for, with the defaults of `--quick` or of the full study.
 fn spec(args: &StudyArgs) -> Result<(StudySpec, String)> {
@@ -46,26 +48,25 @@ fn spec(args: &StudyArgs) -> Result<(StudySpec, String)> {
     Ok((spec, schedule))
 }
 
-pub fn run(args: &StudyArgs, _quiet: bool) -> Result<()> {
+pub fn run(args: &StudyArgs, quiet: bool) -> Result<()> {
     let (s, schedule) = spec(args)?;
+    let executor = match args.executor {
+        ExecutorArg::Local => Executor::Local,
+        ExecutorArg::Slurm => Executor::Slurm(
+            args.slurm.as_deref().map_or_else(|| Ok(SlurmConfig::default()), SlurmConfig::read)?,
+        ),
+    };
+    let work_dir = args.work_dir.clone().unwrap_or_else(|| s.out.join("work"));
     let stop = super::stop_flag(super::RELEASING);
-    let sets = data(&s, &stop)?;
-    let specs = models();
-    eprintln!("training {} models, {} at a time", specs.len(), s.threads);
-    let outcomes = parallel("train", &specs, s.threads, &stop, |spec| train_and_score(spec, &sets, &s))?;
-    let mut tables = Tables::default();
-    for (spec, o) in specs.iter().zip(&outcomes) {
-        for (object, train, test) in &o.scores {
-            tables.record(&spec.name, object, train.clone(), test.clone());
-        }
-    }
-    let per_object: BTreeMap<&str, usize> =
-        OBJECTS.iter().map(|o| (*o, sets[&(*o, false)].len() + sets[&(*o, true)].len())).collect();
+    let started = Instant::now();
+    let bar = progress_bar(quiet || args.json);
+    let study = run_study(&s, &executor, &work_dir, &stop, &|p: &Progress| show(&bar, p))?;
+    bar.finish_and_clear();
     let trained = s.protocol.training(TrainSpec::default());
     let config = json!({
         "protocol": s.protocol.name(),
         "sessions": args.sessions,
-        "sessions_per_object": per_object,
+        "sessions_per_object": study.sessions_per_object,
         "split": "first half (by file name) training, second half testing",
         "schedule": schedule,
         "position_shift_cm": trained.position_shift_cm,
@@ -74,19 +75,72 @@ pub fn run(args: &StudyArgs, _quiet: bool) -> Result<()> {
         "seed": args.seed,
         "quick": args.quick,
     });
-    write_outputs(&s.out, &tables, config, outcomes.into_iter().map(|o| o.summary).collect())
+    write_outputs(&s.out, &study.tables, config, study.models, !args.json)?;
+    if args.json {
+        let report = json!({
+            "executor": format!("{:?}", args.executor).to_lowercase(),
+            "work_dir": work_dir,
+            "wall_s": started.elapsed().as_secs_f64(),
+            "tables": [s.out.join("tables.md"), s.out.join("tables.json")],
+            "jobs": study.jobs,
+        });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    }
+    Ok(())
 }
 
-fn write_outputs(out: &Path, tables: &Tables, config: Value, models: Vec<Value>) -> Result<()> {
+/// `slidetrack study-job WORK INDEX`: one job of a study's work directory.
+pub fn run_job(args: &StudyJobArgs) -> Result<()> {
+    let result = executor::run_job(&args.work_dir, args.index)?;
+    eprintln!(
+        "job {} done on {} in {:.1} s",
+        result.name,
+        result.host,
+        result.finished_unix_s - result.started_unix_s
+    );
+    Ok(())
+}
+
+/// The bar of finished jobs (hidden when `hidden`).
+fn progress_bar(hidden: bool) -> ProgressBar {
+    let bar = if hidden { ProgressBar::hidden() } else { ProgressBar::new(1) };
+    bar.set_style(
+        ProgressStyle::with_template("jobs [{bar:30}] {pos}/{len}, {elapsed} elapsed  {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+/// Shows `p` on `bar`.
+fn show(bar: &ProgressBar, p: &Progress) {
+    bar.set_length(p.jobs as u64);
+    bar.set_position(p.done as u64);
+    if p.slurm_jobs.is_empty() {
+        bar.set_message(format!("{} training", p.running));
+    } else {
+        bar.set_message(format!(
+            "slurm job {}: {} running, {} pending, {} retried",
+            p.slurm_jobs.join(","),
+            p.running,
+            p.pending,
+            p.retried
+        ));
+    }
+}
+
+fn write_outputs(out: &Path, tables: &Tables, config: Value, models: Vec<Value>, print: bool) -> Result<()> {
     let markdown = tables.markdown(&config);
     let json = json!({"config": config, "models": models, "tables": tables.json()});
     write_atomically(&out.join("tables.md"), markdown.as_bytes())?;
     write_atomically(&out.join("tables.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
-    println!("{markdown}");
-    println!(
-        "tables written to {} and {}",
-        out.join("tables.md").display(),
-        out.join("tables.json").display()
-    );
+    if print {
+        println!("{markdown}");
+        println!(
+            "tables written to {} and {}",
+            out.join("tables.md").display(),
+            out.join("tables.json").display()
+        );
+    }
     Ok(())
 }

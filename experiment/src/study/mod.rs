@@ -4,6 +4,7 @@
 //! all objects) trained in parallel; Tables 6.1-6.4 with the thesis's rows
 //! and columns ([`Tables`]).
 
+pub mod executor;
 mod tables;
 
 use std::collections::BTreeMap;
@@ -69,7 +70,7 @@ pub fn models() -> Vec<ModelSpec> {
 }
 
 /// A study: where its sessions are, how many to collect, how to train.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct StudySpec {
     /// Directory of sessions, grouped by the object in their metadata.
     pub sessions: PathBuf,
@@ -178,6 +179,33 @@ fn mean_of(model: &DekfModel, linear: &LinearBaseline, sessions: &[SessionData])
     Ok(mean_scores(&all))
 }
 
+/// The objects whose testing sets `spec` is tabled on, each with whether
+/// its training set is tabled too (Table 6.1: an object's own xyz model).
+pub fn scored_on(spec: &ModelSpec) -> Vec<(&'static str, bool)> {
+    let xy_derivative = spec.channels == ChannelSet::Xy && spec.measurement == Measurement::Derivative;
+    OBJECTS
+        .iter()
+        .filter_map(|&object| {
+            let own = spec.trained_on == [object];
+            (own || xy_derivative).then_some((object, own && spec.channels == ChannelSet::Xyz))
+        })
+        .collect()
+}
+
+/// The sets `spec` reads: its training sets and the sets it is scored on.
+pub fn sets_of(spec: &ModelSpec) -> Vec<(&'static str, bool)> {
+    let mut keys: Vec<(&'static str, bool)> = spec.trained_on.iter().map(|o| (*o, false)).collect();
+    for (object, on_training_set) in scored_on(spec) {
+        keys.push((object, true));
+        if on_training_set {
+            keys.push((object, false));
+        }
+    }
+    keys.sort_unstable();
+    keys.dedup();
+    keys
+}
+
 /// A trained model of the study and its scores.
 pub struct Outcome {
     /// What was trained, for `tables.json`.
@@ -208,18 +236,10 @@ pub fn train_and_score(spec: &ModelSpec, sets: &Sets, s: &StudySpec) -> Result<O
     let last = trained.epochs.last().map_or([f64::NAN; 2], |e| e.rmse);
     let model = &trained.model;
     let mut scores = Vec::new();
-    let xy_derivative = spec.channels == ChannelSet::Xy && spec.measurement == Measurement::Derivative;
-    for object in OBJECTS {
-        let own = spec.trained_on == [object];
-        if !(own || xy_derivative) {
-            continue;
-        }
+    for (object, on_training_set) in scored_on(spec) {
         let test = mean_of(model, &linear, &sets[&(object, true)])?;
-        let train = if own && spec.channels == ChannelSet::Xyz {
-            Some(mean_of(model, &linear, &sets[&(object, false)])?)
-        } else {
-            None
-        };
+        let train =
+            if on_training_set { Some(mean_of(model, &linear, &sets[&(object, false)])?) } else { None };
         scores.push((object, train, test));
     }
     eprintln!(

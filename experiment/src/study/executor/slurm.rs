@@ -1,0 +1,312 @@
+//! The Slurm executor: the jobs without a result as a job array (one task
+//! per job, `--cpus-per-task` from the job's threads), each task running
+//! `slidetrack study-job WORK INDEX`; waits for them through `squeue` and
+//! the tasks' result files, and submits a failed or cancelled task again up
+//! to [`SlurmConfig::retries`] times. The array jobs it submitted are kept
+//! in `WORK/slurm/submitted.json`: a study run again waits for their tasks
+//! that are still queued or running instead of submitting them twice.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use serde::{Deserialize, Serialize};
+
+use super::error::{ExecutorError, io};
+use super::job::Plan;
+use super::slurm_cli::{final_state, is_active, sbatch, squeue};
+use super::types::{JobReport, Progress, SlurmConfig};
+
+/// One array job submitted for the study.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct Submission {
+    /// Its id.
+    job_id: u64,
+    /// The jobs (array indices) it runs.
+    indices: Vec<usize>,
+    /// Its script.
+    script: PathBuf,
+}
+
+/// The contents of `WORK/slurm/submitted.json`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+struct Submitted {
+    arrays: Vec<Submission>,
+}
+
+/// One look at the queue.
+struct Look {
+    /// Jobs whose result appeared.
+    done: Vec<usize>,
+    /// Jobs whose task left the queue without a result, with its last state.
+    lost: Vec<(usize, String)>,
+    /// Tasks running.
+    running: usize,
+    /// Tasks pending.
+    pending: usize,
+}
+
+/// A task being waited for.
+struct Tracked {
+    job_id: u64,
+    /// When it was first seen out of the queue without a result.
+    gone_since: Option<Instant>,
+}
+
+/// Quotes `s` for the shell.
+fn sh_quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+/// The array script: `#SBATCH` options from `config`, then the task.
+pub fn script(config: &SlurmConfig, threads: usize, binary: &Path, work_dir: &Path, cwd: &Path) -> String {
+    let mut s = String::from("#!/bin/sh\n");
+    let mut opt = |o: String| s += &format!("#SBATCH {o}\n");
+    opt("--job-name=slidetrack-study".into());
+    opt(format!("--cpus-per-task={threads}"));
+    opt(format!("--output={}", work_dir.join("slurm/logs/%A_%a.out").display()));
+    opt(format!("--chdir={}", cwd.display()));
+    for (name, value) in [
+        ("partition", &config.partition),
+        ("account", &config.account),
+        ("time", &config.time),
+        ("mem", &config.mem),
+    ] {
+        if let Some(v) = value {
+            opt(format!("--{name}={v}"));
+        }
+    }
+    for o in &config.sbatch_options {
+        opt(o.clone());
+    }
+    s += &format!(
+        "exec {} -q study-job {} \"$SLURM_ARRAY_TASK_ID\"\n",
+        sh_quote(&binary.display().to_string()),
+        sh_quote(&work_dir.display().to_string())
+    );
+    s
+}
+
+struct Executor<'a> {
+    plan: &'a Plan,
+    config: &'a SlurmConfig,
+    dir: PathBuf,
+    submitted: Submitted,
+    tracked: BTreeMap<usize, Tracked>,
+    attempts: BTreeMap<usize, u32>,
+    binary: PathBuf,
+    cwd: PathBuf,
+    work_dir: PathBuf,
+}
+
+impl Executor<'_> {
+    fn state_path(&self) -> PathBuf {
+        self.dir.join("submitted.json")
+    }
+
+    /// Submits `indices`, one array per thread count.
+    fn submit(&mut self, indices: &[usize]) -> Result<(), ExecutorError> {
+        let mut by_threads: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        for &i in indices {
+            by_threads.entry(self.plan.jobs[i].threads.max(1)).or_default().push(i);
+        }
+        for (threads, indices) in by_threads {
+            let path = self.dir.join(format!("array-{}.sh", self.submitted.arrays.len()));
+            let text = script(self.config, threads, &self.binary, &self.work_dir, &self.cwd);
+            std::fs::write(&path, text).map_err(io(&path))?;
+            let job_id = sbatch(&path, &indices, self.config.max_running)?;
+            for &i in &indices {
+                self.tracked.insert(i, Tracked { job_id, gone_since: None });
+                *self.attempts.entry(i).or_default() += 1;
+            }
+            self.submitted.arrays.push(Submission { job_id, indices, script: path });
+            let text = serde_json::to_string_pretty(&self.submitted).unwrap_or_default();
+            std::fs::write(self.state_path(), text).map_err(io(self.state_path()))?;
+        }
+        Ok(())
+    }
+
+    /// The tasks of earlier runs still queued or running, for jobs in `pending`.
+    fn adopt(&mut self, pending: &[usize]) -> Result<(), ExecutorError> {
+        let mut latest: BTreeMap<usize, u64> = BTreeMap::new();
+        for s in &self.submitted.arrays {
+            for &i in &s.indices {
+                latest.insert(i, s.job_id);
+            }
+        }
+        let ids: BTreeSet<u64> = latest.values().copied().collect();
+        let queue = squeue(&ids.into_iter().collect::<Vec<_>>())?;
+        for (&(job_id, index), state) in &queue {
+            if is_active(state) && pending.contains(&index) && latest.get(&index) == Some(&job_id) {
+                self.tracked.insert(index, Tracked { job_id, gone_since: None });
+                self.attempts.insert(index, 1);
+            }
+        }
+        Ok(())
+    }
+
+    /// One look at the queue: the jobs done, lost (with their last state)
+    /// and the tasks running and pending.
+    fn poll(&mut self) -> Result<Look, ExecutorError> {
+        let ids: BTreeSet<u64> = self.tracked.values().map(|t| t.job_id).collect();
+        let queue = squeue(&ids.into_iter().collect::<Vec<_>>())?;
+        let grace = Duration::from_secs_f64(self.config.result_grace_s);
+        let (mut done, mut lost, mut running, mut pending) = (Vec::new(), Vec::new(), 0, 0);
+        for (&index, t) in &mut self.tracked {
+            if self.plan.done(index).is_some() {
+                done.push(index);
+                continue;
+            }
+            match queue.get(&(t.job_id, index)) {
+                Some(state) if is_active(state) => {
+                    t.gone_since = None;
+                    if state.starts_with("PENDING") { pending += 1 } else { running += 1 }
+                }
+                state => {
+                    if t.gone_since.get_or_insert_with(Instant::now).elapsed() >= grace {
+                        let state = state.cloned().unwrap_or_else(|| final_state((t.job_id, index)));
+                        lost.push((index, state));
+                    }
+                }
+            }
+        }
+        for i in done.iter().chain(lost.iter().map(|(i, _)| i)) {
+            self.tracked.remove(i);
+        }
+        Ok(Look { done, lost, running, pending })
+    }
+
+    fn job_ids(&self) -> Vec<String> {
+        let ids: BTreeSet<u64> = self.tracked.values().map(|t| t.job_id).collect();
+        ids.iter().map(u64::to_string).collect()
+    }
+
+    fn reports(&self, pending_at_start: &[usize]) -> Vec<JobReport> {
+        (0..self.plan.jobs.len())
+            .map(|index| {
+                let result = self.plan.done(index);
+                let tasks = self.submitted.arrays.iter().filter(|s| s.indices.contains(&index));
+                JobReport {
+                    index,
+                    name: self.plan.jobs[index].name.clone(),
+                    reused: !pending_at_start.contains(&index),
+                    attempts: self.attempts.get(&index).copied().unwrap_or(0),
+                    slurm_tasks: tasks.map(|s| format!("{}_{index}", s.job_id)).collect(),
+                    host: result.as_ref().map_or_else(String::new, |r| r.host.clone()),
+                    started_unix_s: result.as_ref().map_or(f64::NAN, |r| r.started_unix_s),
+                    finished_unix_s: result.as_ref().map_or(f64::NAN, |r| r.finished_unix_s),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Runs the jobs of `plan` without a valid result on Slurm and waits for
+/// them, calling `progress` after each look at the queue; returns every
+/// job's report. On `stop` it returns at once, leaving the tasks in Slurm.
+pub fn run_slurm(
+    plan: &Plan,
+    config: &SlurmConfig,
+    stop: &AtomicBool,
+    progress: &(dyn Fn(&Progress) + Sync),
+) -> Result<Vec<JobReport>, ExecutorError> {
+    let cwd = std::env::current_dir().map_err(io("."))?;
+    let dir = cwd.join(&plan.work_dir).join("slurm");
+    std::fs::create_dir_all(dir.join("logs")).map_err(io(dir.join("logs")))?;
+    let binary = match &config.binary {
+        Some(b) => b.clone(),
+        None => std::env::current_exe().map_err(io("the running slidetrack binary"))?,
+    };
+    let state_path = dir.join("submitted.json");
+    let submitted = match std::fs::read_to_string(&state_path) {
+        Ok(text) => serde_json::from_str(&text)
+            .map_err(|e| ExecutorError::Parse { path: state_path.clone(), message: e.to_string() })?,
+        Err(_) => Submitted::default(),
+    };
+    let mut ex = Executor {
+        plan,
+        config,
+        dir,
+        submitted,
+        tracked: BTreeMap::new(),
+        attempts: BTreeMap::new(),
+        binary,
+        work_dir: cwd.join(&plan.work_dir),
+        cwd,
+    };
+    let pending_at_start = plan.pending();
+    ex.adopt(&pending_at_start)?;
+    let fresh: Vec<usize> =
+        pending_at_start.iter().copied().filter(|i| !ex.tracked.contains_key(i)).collect();
+    if !fresh.is_empty() {
+        ex.submit(&fresh)?;
+    }
+    let (mut done, mut retried, mut failed) = (plan.jobs.len() - pending_at_start.len(), 0, Vec::new());
+    while !ex.tracked.is_empty() {
+        if stop.load(Ordering::SeqCst) {
+            let left = format!(
+                " ({} task(s) still queued or running in Slurm job(s) {})",
+                ex.tracked.len(),
+                ex.job_ids().join(",")
+            );
+            return Err(ExecutorError::Interrupted { left });
+        }
+        std::thread::sleep(Duration::from_secs_f64(config.poll_s));
+        let Look { done: finished, lost, running, pending } = ex.poll()?;
+        done += finished.len();
+        let mut again = Vec::new();
+        for (index, state) in lost {
+            if ex.attempts.get(&index).copied().unwrap_or(0) <= config.retries {
+                again.push(index);
+                retried += 1;
+            } else {
+                failed.push(format!("{} ({state})", plan.jobs[index].name));
+            }
+        }
+        if !again.is_empty() {
+            ex.submit(&again)?;
+        }
+        let slurm_jobs = ex.job_ids();
+        progress(&Progress { jobs: plan.jobs.len(), done, running, pending, retried, slurm_jobs });
+    }
+    if !failed.is_empty() {
+        return Err(ExecutorError::Failed {
+            failed,
+            attempts: config.retries + 1,
+            logs: ex.dir.join("logs"),
+        });
+    }
+    Ok(ex.reports(&pending_at_start))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_script_carries_the_settings_and_runs_one_job_per_task() {
+        let config = SlurmConfig {
+            partition: Some("cpu".into()),
+            time: Some("00:30:00".into()),
+            sbatch_options: vec!["--qos=short".into()],
+            ..SlurmConfig::default()
+        };
+        let s = script(&config, 2, Path::new("/opt/bin/slidetrack"), Path::new("/w/it's"), Path::new("/w"));
+        assert!(s.starts_with("#!/bin/sh\n"), "{s}");
+        for line in [
+            "#SBATCH --cpus-per-task=2",
+            "#SBATCH --partition=cpu",
+            "#SBATCH --time=00:30:00",
+            "#SBATCH --qos=short",
+            "#SBATCH --chdir=/w",
+        ] {
+            assert!(s.lines().any(|l| l == line), "{line} missing from\n{s}");
+        }
+        assert!(!s.contains("--account") && !s.contains("--mem"), "{s}");
+        assert!(
+            s.ends_with("exec '/opt/bin/slidetrack' -q study-job '/w/it'\\''s' \"$SLURM_ARRAY_TASK_ID\"\n"),
+            "{s}"
+        );
+    }
+}

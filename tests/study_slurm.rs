@@ -1,0 +1,189 @@
+//! `study --executor slurm` against a real Slurm: the one-node cluster of
+//! `scripts/slurm-test-cluster` (which `scripts/test` starts), or any
+//! cluster whose `sbatch` and `squeue` are on the PATH. The tests run when
+//! `SLIDETRACK_SLURM=1` and skip with a message otherwise.
+//!
+//! The study is the smallest that trains real models: `--quick` on two
+//! 6-s sessions per object, 13 models of one short stage each.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use common::{ok, slidetrack, tempdir};
+use serde_json::Value;
+
+/// Whether a Slurm cluster is there to test against; says why not otherwise.
+fn slurm() -> bool {
+    let on = std::env::var("SLIDETRACK_SLURM").is_ok_and(|v| v == "1");
+    if !on {
+        eprintln!(
+            "skipped: no Slurm cluster (SLIDETRACK_SLURM is not 1); `scripts/slurm-test-cluster start` starts \
+             one and `scripts/slurm-test-cluster env` prints the variables"
+        );
+    }
+    on
+}
+
+/// The study's arguments on `sessions`, writing to `out`.
+fn args(sessions: &Path, out: &Path) -> Vec<String> {
+    let a = ["-q", "study", "--quick", "--collect", "2", "--duration", "6", "--schedule", "4:2,8:2"];
+    let mut a: Vec<String> = a.iter().map(|s| s.to_string()).collect();
+    for (k, v) in [("--sessions", sessions), ("--out", out)] {
+        a.extend([k.to_string(), v.display().to_string()]);
+    }
+    a
+}
+
+/// A local run of the study, once per test binary.
+struct Local {
+    sessions: PathBuf,
+    out: PathBuf,
+}
+
+/// The local run (in the target's test directory, replaced on each run of
+/// the tests): its sessions, which the Slurm runs reuse, and its output.
+fn local() -> &'static Local {
+    static LOCAL: OnceLock<Local> = OnceLock::new();
+    LOCAL.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("study_slurm");
+        let _ = std::fs::remove_dir_all(&dir);
+        let (sessions, out) = (dir.join("sessions"), dir.join("local"));
+        let a = args(&sessions, &out);
+        ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+        Local { sessions, out }
+    })
+}
+
+/// Every file of `out/models`, by name.
+fn models(out: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(out.join("models"))
+        .expect("models directory")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "safetensors"))
+        .map(|p| {
+            (
+                p.file_name().expect("file name").to_string_lossy().into_owned(),
+                std::fs::read(&p).expect("model"),
+            )
+        })
+        .collect()
+}
+
+/// `out`'s models and tables equal the local run's, byte for byte (the
+/// tables' JSON but for the models' training times).
+fn assert_same_as_local(out: &Path) {
+    let local = &local().out;
+    let (a, b) = (models(local), models(out));
+    assert_eq!(a.len(), 26, "13 models and their linear baselines: {:?}", a.keys());
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    for (name, bytes) in &a {
+        assert!(b[name] == *bytes, "{name} differs from the local run's");
+    }
+    let md = |o: &Path| std::fs::read_to_string(o.join("tables.md")).expect("tables.md");
+    assert_eq!(md(local), md(out), "tables.md");
+    let tables = |o: &Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(o.join("tables.json")).expect("tables.json"))
+            .expect("json")
+    };
+    let (t, u) = (tables(local), tables(out));
+    assert_eq!(t["tables"], u["tables"]);
+    assert_eq!(t["config"], u["config"]);
+}
+
+/// Writes the executor's settings: quick polling, a short grace for results.
+fn settings(dir: &Path) -> PathBuf {
+    let path = dir.join("slurm.toml");
+    std::fs::write(&path, "poll_s = 0.2\nresult_grace_s = 1.0\nretries = 2\ntime = \"00:10:00\"\n")
+        .expect("toml");
+    path
+}
+
+fn slurm_args(out: &Path, toml: &Path) -> Vec<String> {
+    let mut a = args(&local().sessions, out);
+    a.extend(["--executor", "slurm", "--json", "--slurm"].map(String::from));
+    a.push(toml.display().to_string());
+    a
+}
+
+/// The models and tables of `--executor slurm` are the local run's; every
+/// job ran as a task of an array job; run again, the study submits nothing
+/// and reuses every result.
+#[test]
+fn slurm_study_equals_the_local_run_and_resumes_from_its_results() {
+    if !slurm() {
+        return;
+    }
+    let dir = tempdir();
+    let out = dir.path().join("slurm");
+    let a = slurm_args(&out, &settings(dir.path()));
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    let report: Value = serde_json::from_str(&ok(&a)).expect("--json report");
+    assert_same_as_local(&out);
+    let jobs = report["jobs"].as_array().expect("jobs");
+    assert_eq!(jobs.len(), 13);
+    for j in jobs {
+        let tasks = j["slurm_tasks"].as_array().expect("slurm_tasks");
+        assert_eq!(tasks.len(), 1, "{j}");
+        assert!(tasks[0].as_str().expect("task id").ends_with(&format!("_{}", j["index"])), "{j}");
+        assert!(j["finished_unix_s"].as_f64() >= j["started_unix_s"].as_f64(), "{j}");
+        assert_eq!(j["reused"], false);
+    }
+    let again: Value = serde_json::from_str(&ok(&a)).expect("--json report");
+    for j in again["jobs"].as_array().expect("jobs") {
+        assert_eq!((&j["reused"], &j["attempts"]), (&Value::Bool(true), &Value::from(0)), "{j}");
+    }
+    let submitted = std::fs::read_to_string(out.join("work/slurm/submitted.json")).expect("submitted.json");
+    let arrays: Value = serde_json::from_str(&submitted).expect("json");
+    assert_eq!(arrays["arrays"].as_array().map(Vec::len), Some(1), "{submitted}");
+    assert_same_as_local(&out);
+}
+
+/// A task cancelled while it runs (`scancel`) is submitted again and the
+/// study completes with the local run's models and tables.
+#[test]
+fn a_task_cancelled_mid_run_is_retried_and_the_results_are_unchanged() {
+    if !slurm() {
+        return;
+    }
+    let dir = tempdir();
+    let out = dir.path().join("slurm");
+    let a = slurm_args(&out, &settings(dir.path()));
+    let study =
+        slidetrack().args(&a).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("study starts");
+    let submitted = out.join("work/slurm/submitted.json");
+    let started = Instant::now();
+    let cancelled = loop {
+        assert!(started.elapsed() < Duration::from_secs(120), "no task of the study ran within 120 s");
+        std::thread::sleep(Duration::from_millis(100));
+        let Ok(text) = std::fs::read_to_string(&submitted) else { continue };
+        let Ok(state) = serde_json::from_str::<Value>(&text) else { continue };
+        let job = state["arrays"][0]["job_id"].to_string();
+        let q = std::process::Command::new("squeue")
+            .args(["-h", "-r", "-t", "RUNNING", "-o", "%i", "-j", &job])
+            .output()
+            .expect("squeue runs");
+        let running = String::from_utf8_lossy(&q.stdout).to_string();
+        // The all-objects model (index 12) trains longest: cancel it when running.
+        if let Some(task) = running.lines().find(|t| t.trim().ends_with("_12")) {
+            let st = std::process::Command::new("scancel").arg(task.trim()).status().expect("scancel runs");
+            assert!(st.success());
+            break task.trim().to_string();
+        }
+    };
+    let output = study.wait_with_output().expect("study finishes");
+    assert!(output.status.success(), "study failed:\n{}", String::from_utf8_lossy(&output.stderr));
+    let report: Value = serde_json::from_slice(&output.stdout).expect("--json report");
+    let job = &report["jobs"][12];
+    assert_eq!(job["name"], "all-xy");
+    let tasks: Vec<&str> =
+        job["slurm_tasks"].as_array().expect("tasks").iter().filter_map(Value::as_str).collect();
+    assert_eq!(tasks.len(), 2, "cancelled {cancelled}; {job}");
+    assert_eq!(tasks[0], cancelled);
+    assert_eq!(job["attempts"], 2);
+    assert_same_as_local(&out);
+}
