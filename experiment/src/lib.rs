@@ -25,6 +25,8 @@ pub mod linear_baseline;
 pub mod live_view;
 pub mod marker;
 pub mod observer;
+#[cfg(test)]
+mod observer_encoding_tests;
 pub mod pipeline;
 pub mod planar_eval;
 pub mod plot;
