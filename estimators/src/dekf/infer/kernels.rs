@@ -66,13 +66,32 @@ pub(super) const V3_BLOCK: usize = 64;
 pub(super) const PORTABLE_BLOCK: usize = 32;
 
 /// The indices of the non-zero elements of `x`, in order, in `nz` (at least
-/// as long as `x`); returns how many. Branch-free.
+/// as long as `x`); returns how many. Branch-free: in each group of eight,
+/// every element's index is written where it would go were it non-zero
+/// (after the non-zero ones before it), so that a zero one's is
+/// overwritten by the next non-zero one's or left past the end; the places
+/// do not depend on each other, only on the group's mask.
 #[inline(always)]
 fn non_zero(x: &[f32], nz: &mut [u32]) -> usize {
+    let nz = &mut nz[..x.len()];
     let mut n = 0;
-    for (i, &v) in x.iter().enumerate() {
-        nz[n] = i as u32;
-        n += usize::from(v != 0.0);
+    let groups = x.chunks_exact(8);
+    let tail = groups.remainder();
+    for (g, group) in groups.enumerate() {
+        let mut mask = 0u32;
+        for (k, v) in group.iter().enumerate() {
+            mask |= u32::from(*v != 0.0) << k;
+        }
+        for k in 0..8 {
+            let place = n + (mask & ((1 << k) - 1)).count_ones() as usize;
+            nz[place] = (g * 8 + k) as u32;
+        }
+        n += mask.count_ones() as usize;
+    }
+    let start = x.len() - tail.len();
+    for (i, v) in tail.iter().enumerate() {
+        nz[n] = (start + i) as u32;
+        n += usize::from(*v != 0.0);
     }
     n
 }
@@ -183,6 +202,41 @@ mod tests {
                         );
                     }
                 }
+            }
+        }
+    }
+
+    /// Groups of eight all zero, all non-zero and mixed, and a tail; the
+    /// indices a zero element wrote must all be overwritten or past the
+    /// count.
+    #[test]
+    fn the_non_zero_list_is_the_non_zero_indices_in_order() {
+        for len in [0, 3, 8, 16, 21, 64] {
+            for pattern in 0..4 {
+                let x: Vec<f32> = (0..len)
+                    .map(|i| match pattern {
+                        0 => 0.0,
+                        1 => 1.0 + i as f32,
+                        2 => {
+                            if (i * 7) % 5 < 2 {
+                                0.0
+                            } else {
+                                -0.5
+                            }
+                        }
+                        _ => {
+                            if i / 8 % 2 == 0 {
+                                0.0
+                            } else {
+                                2.0
+                            }
+                        }
+                    })
+                    .collect();
+                let want: Vec<u32> = (0..len as u32).filter(|&i| x[i as usize] != 0.0).collect();
+                let mut nz = vec![u32::MAX; len];
+                let n = non_zero(&x, &mut nz);
+                assert_eq!(&nz[..n], &want[..], "length {len}, pattern {pattern}");
             }
         }
     }
