@@ -10,7 +10,7 @@
 //! its weights column by column (the parameters' own layout) for the
 //! forward product `W x`, a sum of scaled columns, and row by row (the
 //! transpose) for the reverse product `W^T g`, a sum of scaled rows: both
-//! are the one register-blocked kernel of [`kernels`], which skips the zero
+//! are the one register-blocked kernel of `kernels`, which skips the zero
 //! elements of the vector (the inputs a ReLU zeroed; in reverse, the
 //! gradients its slope zeroed). Where the input's activation has a zero
 //! slope the reverse result is zeroed, as the chain rule would. The
@@ -20,9 +20,10 @@
 //! the network was built (`kernels::Isa`): AVX2 with fused multiply-adds
 //! where the CPU has them, the build's baseline otherwise. The two differ
 //! only in rounding (the fused one rounds once per multiply-add; the sum
-//! of the timing aid's 40 000 feature values differs by 2e-7 relative). On the 2-core AMD EPYC of
-//! `docs/dekf.md` the three networks of one step take 7.9 us with
-//! AVX2+FMA against 12.2 us without (minimum of 200 runs of 200 steps,
+//! of the timing aid's 40 000 feature values differs by 2e-7 relative). On
+//! the 2-core AMD EPYC of `docs/dekf.md` the three networks of one step
+//! take 7.9 us with AVX2+FMA against 12.2 us without (minimum of 200 runs
+//! of 200 steps,
 //! `cargo test --release -p slidetrack-estimators --lib time_the_networks
 //! -- --ignored --nocapture`).
 
