@@ -48,16 +48,20 @@ missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ "${#missing[@]}" -gt 0 ]; then
+# Installs Debian packages "$@" (through sudo only when not root).
+apt_install() {
   if ! command -v apt-get >/dev/null; then
-    echo "setup: missing ${missing[*]} and no apt-get here; install them with your package manager" >&2
+    echo "setup: missing $* and no apt-get here; install them with your package manager" >&2
     exit 1
   fi
-  sudo=""
+  local sudo=""
   if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
-  echo "setup: installing ${missing[*]}" >&2
+  echo "setup: installing $*" >&2
   $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+if [ "${#missing[@]}" -gt 0 ]; then
+  apt_install "${missing[@]}"
 fi
 
 # --- begin: Node.js and the Foxglove WebSocket client (--test, --test-node) ---
@@ -66,15 +70,7 @@ fi
 # lock file changes. tests/live.rs finds them there.
 if [ "$node" = 1 ]; then
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
-    if ! command -v apt-get >/dev/null; then
-      echo "setup: no node/npm and no apt-get here; install Node.js with your package manager" >&2
-      exit 1
-    fi
-    node_sudo=""
-    if [ "$(id -u)" -ne 0 ]; then node_sudo="sudo"; fi
-    echo "setup: installing nodejs and npm" >&2
-    $node_sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $node_sudo apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+    apt_install nodejs npm
   fi
   if ! cmp -s tests/node/package-lock.json target/node/package-lock.json \
     || [ ! -f target/node/node_modules/@foxglove/ws-protocol/package.json ]; then

@@ -13,16 +13,8 @@ use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde_json::Value;
 use slidetrack_experiment::hand_calibration_session::{HandTargetRecording, record_hand_target_session};
 
-const RIG: &str = r#"
-[camera]
-placement = { kind = "look_at", position_m = [0.28, 0.06, 0.14], look_at_m = [0.08, -0.01, 0.0], up_in_hand = [0.1, 0.0, 1.0] }
-
-[hand_target]
-dictionary = "DICT_6X6_250"
-id = 11
-marker_size_m = 0.05
-hand_from_target = { translation_m = [0.1024, 0.0069, 0.0086], quaternion_xyzw = [0.351615, 0.452679, 0.671449, 0.469686] }
-"#;
+// The camera off the default placement, and the hand's target.
+use common::HAND_TARGET_RIG as RIG;
 
 #[test]
 fn calibrate_hand_on_the_simulated_rig_recovers_the_placement_within_2_mm_and_half_a_degree() {

@@ -14,17 +14,8 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde_json::Value;
 use slidetrack_session::{ReadOptions, SessionInfo};
 
-/// The camera off the default placement, and the hand's target for `calibrate hand`.
-const RIG: &str = r#"
-[camera]
-placement = { kind = "look_at", position_m = [0.28, 0.06, 0.14], look_at_m = [0.08, -0.01, 0.0], up_in_hand = [0.1, 0.0, 1.0] }
-
-[hand_target]
-dictionary = "DICT_6X6_250"
-id = 11
-marker_size_m = 0.05
-hand_from_target = { translation_m = [0.1024, 0.0069, 0.0086], quaternion_xyzw = [0.351615, 0.452679, 0.671449, 0.469686] }
-"#;
+// The camera off the default placement, and the hand's target.
+use common::HAND_TARGET_RIG as RIG;
 
 /// `label FILE EXTRA... --dry-run --json`: the session's summary.
 fn label(file: &Path, extra: &[&str]) -> Value {

@@ -170,3 +170,16 @@ pub fn check_against_the_reference(model: &str, out: &Path, steps: u64) -> serde
     }
     r
 }
+
+/// A rig with its camera off the default placement and a marker fixed to
+/// the hand as `calibrate hand`'s target (the hand-frame tests).
+pub const HAND_TARGET_RIG: &str = r#"
+[camera]
+placement = { kind = "look_at", position_m = [0.28, 0.06, 0.14], look_at_m = [0.08, -0.01, 0.0], up_in_hand = [0.1, 0.0, 1.0] }
+
+[hand_target]
+dictionary = "DICT_6X6_250"
+id = 11
+marker_size_m = 0.05
+hand_from_target = { translation_m = [0.1024, 0.0069, 0.0086], quaternion_xyzw = [0.351615, 0.452679, 0.671449, 0.469686] }
+"#;
