@@ -77,20 +77,30 @@ fn models(out: &Path) -> BTreeMap<String, Vec<u8>> {
 /// `out`'s models and tables equal the local run's, byte for byte (the
 /// tables' JSON but for the models' training times).
 fn assert_same_as_local(out: &Path) {
-    let local = &local().out;
-    let (a, b) = (models(local), models(out));
+    assert_same_outputs(&local().out, out, None);
+}
+
+/// `out`'s models and tables equal `expected`'s, byte for byte (the tables'
+/// JSON but for the models' training times); `sessions`: the two runs'
+/// sessions directories, when they differ (the tables name them).
+fn assert_same_outputs(expected: &Path, out: &Path, sessions: Option<(&Path, &Path)>) {
+    let (a, b) = (models(expected), models(out));
     assert_eq!(a.len(), 26, "13 models and their linear baselines: {:?}", a.keys());
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     for (name, bytes) in &a {
-        assert!(b[name] == *bytes, "{name} differs from the local run's");
+        assert!(b[name] == *bytes, "{name} differs from {}'s", expected.display());
     }
-    let md = |o: &Path| std::fs::read_to_string(o.join("tables.md")).expect("tables.md");
-    assert_eq!(md(local), md(out), "tables.md");
-    let tables = |o: &Path| -> Value {
-        serde_json::from_str(&std::fs::read_to_string(o.join("tables.json")).expect("tables.json"))
-            .expect("json")
+    let same_sessions = |text: String| match sessions {
+        Some((x, y)) => text.replace(&y.display().to_string(), &x.display().to_string()),
+        None => text,
     };
-    let (t, u) = (tables(local), tables(out));
+    let md = |o: &Path| std::fs::read_to_string(o.join("tables.md")).expect("tables.md");
+    assert_eq!(md(expected), same_sessions(md(out)), "tables.md");
+    let tables = |o: &Path| -> Value {
+        let text = std::fs::read_to_string(o.join("tables.json")).expect("tables.json");
+        serde_json::from_str(&if o == out { same_sessions(text) } else { text }).expect("json")
+    };
+    let (t, u) = (tables(expected), tables(out));
     assert_eq!(t["tables"], u["tables"]);
     assert_eq!(t["config"], u["config"]);
 }
@@ -137,7 +147,8 @@ fn slurm_study_equals_the_local_run_and_resumes_from_its_results() {
     for j in again["jobs"].as_array().expect("jobs") {
         assert_eq!((&j["reused"], &j["attempts"]), (&Value::Bool(true), &Value::from(0)), "{j}");
     }
-    let submitted = std::fs::read_to_string(out.join("work/slurm/submitted.json")).expect("submitted.json");
+    let submitted =
+        std::fs::read_to_string(out.join("work/train/slurm/submitted.json")).expect("submitted.json");
     let arrays: Value = serde_json::from_str(&submitted).expect("json");
     assert_eq!(arrays["arrays"].as_array().map(Vec::len), Some(1), "{submitted}");
     assert_same_as_local(&out);
@@ -155,7 +166,7 @@ fn a_task_cancelled_mid_run_is_retried_and_the_results_are_unchanged() {
     let a = slurm_args(&out, &settings(dir.path()));
     let study =
         slidetrack().args(&a).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("study starts");
-    let submitted = out.join("work/slurm/submitted.json");
+    let submitted = out.join("work/train/slurm/submitted.json");
     let started = Instant::now();
     let cancelled = loop {
         assert!(started.elapsed() < Duration::from_secs(120), "no task of the study ran within 120 s");
@@ -186,4 +197,120 @@ fn a_task_cancelled_mid_run_is_retried_and_the_results_are_unchanged() {
     assert_eq!(tasks[0], cancelled);
     assert_eq!(job["attempts"], 2);
     assert_same_as_local(&out);
+}
+
+/// The result files of `out`'s training jobs, by name.
+fn results(out: &Path) -> BTreeMap<String, Vec<u8>> {
+    let Ok(dir) = std::fs::read_dir(out.join("work/train/results")) else { return BTreeMap::new() };
+    dir.filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .map(|p| {
+            (p.file_name().expect("name").to_string_lossy().into_owned(), std::fs::read(&p).expect("result"))
+        })
+        .collect()
+}
+
+/// Starts the study `a`, kills the submitting process (SIGKILL) once
+/// `finished` training jobs have results, runs the same command again and
+/// checks: the models and tables are the local run's, and no job finished
+/// before the kill ran again (its result file, with its start and end
+/// times, is unchanged, and the rerun reports it reused). Returns the
+/// rerun's report.
+fn kill_and_resume(out: &Path, a: &[String], finished: usize) -> Value {
+    let mut study =
+        slidetrack().args(a).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("study starts");
+    let started = Instant::now();
+    while results(out).len() < finished {
+        assert!(started.elapsed() < Duration::from_secs(300), "{finished} jobs did not finish within 300 s");
+        assert!(study.try_wait().expect("study polls").is_none(), "the study ended before it was killed");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    study.kill().expect("SIGKILL");
+    study.wait().expect("killed study reaped");
+    let before = results(out);
+    assert!(before.len() >= finished && before.len() < 13, "killed after {} of 13 jobs", before.len());
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    let report: Value = serde_json::from_str(&ok(&a)).expect("--json report");
+    assert_same_as_local(out);
+    let after = results(out);
+    for (name, bytes) in &before {
+        assert!(after.get(name) == Some(bytes), "{name}: a job finished before the kill ran again");
+        let job = report["jobs"]
+            .as_array()
+            .expect("jobs")
+            .iter()
+            .find(|j| name.ends_with(&format!("-{}.json", j["name"].as_str().expect("name"))))
+            .expect("job of the result");
+        assert_eq!((&job["reused"], &job["attempts"]), (&Value::Bool(true), &Value::from(0)), "{job}");
+    }
+    report
+}
+
+/// `--executor local`, killed with SIGKILL after 3 trainings and run
+/// again: the 3 are not trained again, and the models and tables are the
+/// uninterrupted run's.
+#[test]
+fn a_local_study_killed_mid_run_resumes_without_rerunning_finished_jobs() {
+    let dir = tempdir();
+    let out = dir.path().join("local-killed");
+    let mut a = args(&local().sessions, &out);
+    a.extend(["--executor", "local", "--json", "--threads", "1"].map(String::from));
+    kill_and_resume(&out, &a, 3);
+}
+
+/// `--executor slurm`, its submitting process killed with SIGKILL after 3
+/// tasks finished and run again: the rerun waits for the tasks still
+/// queued or running instead of submitting them again (one array job in
+/// all, one task per job), runs no finished job again, and the models and
+/// tables are the local run's.
+#[test]
+fn a_slurm_study_whose_submitter_is_killed_resumes_without_rerunning_finished_jobs() {
+    if !slurm() {
+        return;
+    }
+    let dir = tempdir();
+    let out = dir.path().join("slurm-killed");
+    let report = kill_and_resume(&out, &slurm_args(&out, &settings(dir.path())), 3);
+    let submitted =
+        std::fs::read_to_string(out.join("work/train/slurm/submitted.json")).expect("submitted.json");
+    let arrays: Value = serde_json::from_str(&submitted).expect("json");
+    assert_eq!(arrays["arrays"].as_array().map(Vec::len), Some(1), "{submitted}");
+    for j in report["jobs"].as_array().expect("jobs") {
+        assert!(j["attempts"].as_u64() <= Some(1), "{j}");
+    }
+}
+
+/// A study on the labelled ground truth (collected with the camera, then
+/// labelled): on Slurm, collecting and labelling run as array tasks too,
+/// one per session, and the models and tables equal a local run's.
+#[test]
+fn collecting_and_labelling_run_as_slurm_tasks_with_the_local_runs_results() {
+    if !slurm() {
+        return;
+    }
+    let dir = tempdir();
+    let labelled = |name: &str| {
+        let (sessions, out) = (dir.path().join(format!("{name}-sessions")), dir.path().join(name));
+        let mut a = args(&sessions, &out);
+        a.extend(["--truth", "ground-truth", "--json"].map(String::from));
+        (sessions, out, a)
+    };
+    let (local_sessions, local_out, local_args) = labelled("local");
+    ok(&local_args.iter().map(String::as_str).collect::<Vec<_>>());
+    let (sessions, out, mut a) = labelled("slurm");
+    a.extend(["--executor", "slurm", "--slurm"].map(String::from));
+    a.push(settings(dir.path()).display().to_string());
+    let report: Value =
+        serde_json::from_str(&ok(&a.iter().map(String::as_str).collect::<Vec<_>>())).expect("report");
+    assert_same_outputs(&local_out, &out, Some((&local_sessions, &sessions)));
+    for (stage, jobs) in [("collect", 6), ("label", 6), ("train", 13)] {
+        let key = if stage == "train" { "jobs".to_string() } else { format!("{stage}_jobs") };
+        let list = report[&key].as_array().unwrap_or_else(|| panic!("{key} in {report}"));
+        assert_eq!(list.len(), jobs, "{stage}: {report}");
+        for j in list {
+            assert_eq!(j["slurm_tasks"].as_array().map(Vec::len), Some(1), "{stage}: {j}");
+        }
+        assert!(out.join(format!("work/{stage}/slurm/submitted.json")).is_file(), "{stage}");
+    }
 }

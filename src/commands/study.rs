@@ -83,6 +83,8 @@ pub fn run(args: &StudyArgs, quiet: bool) -> Result<()> {
             "wall_s": started.elapsed().as_secs_f64(),
             "tables": [s.out.join("tables.md"), s.out.join("tables.json")],
             "jobs": study.jobs,
+            "collect_jobs": study.collect_jobs,
+            "label_jobs": study.label_jobs,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
     }
@@ -117,10 +119,11 @@ fn show(bar: &ProgressBar, p: &Progress) {
     bar.set_length(p.jobs as u64);
     bar.set_position(p.done as u64);
     if p.slurm_jobs.is_empty() {
-        bar.set_message(format!("{} training", p.running));
+        bar.set_message(format!("{}: {} running", p.stage, p.running));
     } else {
         bar.set_message(format!(
-            "slurm job {}: {} running, {} pending, {} retried",
+            "{}: slurm job {}: {} running, {} pending, {} retried",
+            p.stage,
             p.slurm_jobs.join(","),
             p.running,
             p.pending,

@@ -9,22 +9,20 @@ mod tables;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use serde_json::{Value, json};
 use slidetrack_estimators::dekf::{DekfModel, Measurement, Stage};
 use slidetrack_session::{ReadOptions, SESSION_METADATA, SessionInfo};
 
 pub use tables::{OBJECTS, Tables};
 
-use crate::dataset::{ChannelSet, SessionData, TruthSource, expand, load};
+use crate::dataset::{ChannelSet, SessionData, TruthSource};
 use crate::dekf_eval::score_outputs_beside;
 use crate::dekf_run::run;
 use crate::dekf_run::{Scores, mean_scores, save_model};
 use crate::dekf_train::{TrainSpec, fit_sessions};
 use crate::linear_baseline::{LinearBaseline, path_for};
-use crate::pipeline::{DataSpec, collect, label};
 use crate::protocol::Protocol;
 
 /// The training (`false`) and testing (`true`) sessions of each object.
@@ -93,7 +91,7 @@ pub struct StudySpec {
 }
 
 /// The object of a session, from its metadata.
-fn object_of(path: &Path) -> Result<String> {
+pub(crate) fn object_of(path: &Path) -> Result<String> {
     let info = SessionInfo::read(path, ReadOptions::default())?;
     info.metadata
         .get(SESSION_METADATA)
@@ -103,70 +101,8 @@ fn object_of(path: &Path) -> Result<String> {
 }
 
 /// Whether a session has `topic`.
-fn has_topic(path: &Path, topic: &str) -> Result<bool> {
+pub(crate) fn has_topic(path: &Path, topic: &str) -> Result<bool> {
     Ok(SessionInfo::read(path, ReadOptions::default())?.channels.iter().any(|c| c.topic == topic))
-}
-
-/// The training and testing sets of every object: the sessions of `s.sessions`
-/// split 50/50, collected and labelled as needed.
-pub fn data(s: &StudySpec, stop: &AtomicBool) -> Result<Sets> {
-    std::fs::create_dir_all(&s.sessions)
-        .with_context(|| format!("cannot create {}", s.sessions.display()))?;
-    let mut by_object: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
-    if let Ok(files) = expand(std::slice::from_ref(&s.sessions)) {
-        for f in files {
-            by_object.entry(object_of(&f)?).or_default().push(f);
-        }
-    }
-    let mut sets = BTreeMap::new();
-    for object in OBJECTS {
-        let mut files = by_object.remove(object).unwrap_or_default();
-        if files.is_empty() {
-            let spec = DataSpec {
-                object: object.into(),
-                seed: s.seed,
-                trials: 0..s.collect,
-                duration_s: s.duration_s,
-                camera: s.truth.is_labelled(),
-            };
-            eprintln!("{object}: collecting {} sessions into {}", s.collect, s.sessions.display());
-            files = collect(&spec, &s.sessions, s.threads, stop, &|_, report| {
-                if let Some(r) = report {
-                    eprintln!("  {}", r.summary_line());
-                }
-            })?;
-        }
-        if files.len() < 2 {
-            bail!(
-                "{object}: {} session(s) in {}; the study needs at least 2",
-                files.len(),
-                s.sessions.display()
-            );
-        }
-        if let Some(labelling) = Protocol::labelling(s.truth) {
-            let unlabelled: Vec<PathBuf> =
-                files.iter().filter(|f| !has_topic(f, s.truth.topic()).unwrap_or(false)).cloned().collect();
-            if !unlabelled.is_empty() {
-                eprintln!(
-                    "{object}: labelling {} sessions ({} protocol, {})",
-                    unlabelled.len(),
-                    labelling.name(),
-                    s.truth.topic()
-                );
-                label(&unlabelled, labelling, s.threads, stop)?;
-            }
-        }
-        files.sort();
-        let half = files.len() / 2;
-        for (test, part) in [(false, &files[..half]), (true, &files[half..])] {
-            let loaded = part.iter().map(|f| load(f, Some(s.truth))).collect::<Result<Vec<_>>>()?;
-            sets.insert((object, test), loaded);
-        }
-    }
-    if stop.load(Ordering::SeqCst) {
-        bail!("interrupted; run the same command again to resume");
-    }
-    Ok(sets)
 }
 
 /// Mean scores of `model` on `sessions`, beside the linear-map baseline

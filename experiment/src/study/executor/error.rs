@@ -39,6 +39,16 @@ pub enum ExecutorError {
         /// Its exit status and stderr, or why it could not start.
         message: String,
     },
+    /// A setting or path the Slurm executor cannot pass to `sbatch`.
+    #[error("{name} `{value}`: {why}")]
+    Setting {
+        /// What it is (`partition`, `work directory`).
+        name: String,
+        /// Its value.
+        value: String,
+        /// Why it cannot be used.
+        why: &'static str,
+    },
     /// Jobs still failed after every retry.
     #[error(
         "{} job(s) failed after {attempts} attempt(s) each: {}; their logs are in {}",

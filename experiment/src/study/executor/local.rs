@@ -1,20 +1,21 @@
 //! The local executor: the jobs without a result, `threads` at a time, on
-//! this machine, on the sets the study has already loaded.
+//! this machine (training jobs on the sets the study has already loaded).
 
 use std::sync::atomic::AtomicBool;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::error::ExecutorError;
-use super::job::Plan;
+use super::plan::Plan;
 use super::types::{JobReport, Progress};
 use crate::pipeline::parallel;
 use crate::study::Sets;
 
-/// Runs the jobs of `plan` that have no valid result, `threads` at a time,
+/// Runs the jobs of `plan` that have no valid result, `threads` at a time
+/// (training jobs on `sets` when given, else on their sessions' files),
 /// calling `progress` as they finish; returns every job's report.
 pub fn run_local(
     plan: &Plan,
-    sets: &Sets,
+    sets: Option<&Sets>,
     threads: usize,
     stop: &AtomicBool,
     progress: &(dyn Fn(&Progress) + Sync),
@@ -30,15 +31,15 @@ pub fn run_local(
         })
     };
     report(done.load(Ordering::SeqCst));
-    parallel("train", &pending, threads, stop, |&index| {
-        let r = plan.execute(index, sets);
+    parallel("job", &pending, threads, stop, |&index| {
+        let r = plan.execute(index, sets, stop);
         report(done.fetch_add(1, Ordering::SeqCst) + 1);
         Ok(r?)
     })
     .map_err(|e| match e.downcast::<ExecutorError>() {
         Ok(e) => e,
         Err(_) if stop.load(Ordering::SeqCst) => ExecutorError::Interrupted { left: String::new() },
-        Err(e) => ExecutorError::Job { name: "train".into(), message: format!("{e:#}") },
+        Err(e) => ExecutorError::Job { name: "job".into(), message: format!("{e:#}") },
     })?;
     Ok((0..plan.jobs.len())
         .map(|index| {

@@ -14,9 +14,10 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 
 use super::error::{ExecutorError, io};
-use super::job::Plan;
-use super::slurm_cli::{final_state, is_active, sbatch, squeue};
+use super::plan::Plan;
+use super::slurm_cli::{TaskId, final_state, is_active, sacct, sbatch, squeue};
 use super::types::{JobReport, Progress, SlurmConfig};
+use crate::dekf_run::write_atomically;
 
 /// One array job submitted for the study.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -59,14 +60,31 @@ fn sh_quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', r"'\''"))
 }
 
-/// The array script: `#SBATCH` options from `config`, then the task.
-pub fn script(config: &SlurmConfig, threads: usize, binary: &Path, work_dir: &Path, cwd: &Path) -> String {
+/// A setting that `#SBATCH` lines cannot carry: sbatch(1) documents no
+/// quoting for them, so a value with white space is refused.
+fn sbatch_line(name: &str, value: &str) -> Result<String, ExecutorError> {
+    if value.chars().any(char::is_whitespace) {
+        return Err(ExecutorError::Setting {
+            name: name.into(),
+            value: value.into(),
+            why: "has white space, which an #SBATCH line cannot carry (sbatch(1) documents no quoting)",
+        });
+    }
+    Ok(format!("#SBATCH {value}\n"))
+}
+
+/// The array script: `#SBATCH` lines of `config`'s settings, then the task
+/// (paths shell-quoted). The paths Slurm needs (`--chdir`, `--output`) go
+/// on `sbatch`'s command line instead ([`path_options`]).
+pub fn script(
+    config: &SlurmConfig,
+    threads: usize,
+    binary: &Path,
+    work_dir: &Path,
+) -> Result<String, ExecutorError> {
     let mut s = String::from("#!/bin/sh\n");
-    let mut opt = |o: String| s += &format!("#SBATCH {o}\n");
-    opt("--job-name=slidetrack-study".into());
-    opt(format!("--cpus-per-task={threads}"));
-    opt(format!("--output={}", work_dir.join("slurm/logs/%A_%a.out").display()));
-    opt(format!("--chdir={}", cwd.display()));
+    s += &sbatch_line("job name", "--job-name=slidetrack-study")?;
+    s += &sbatch_line("threads", &format!("--cpus-per-task={threads}"))?;
     for (name, value) in [
         ("partition", &config.partition),
         ("account", &config.account),
@@ -74,18 +92,35 @@ pub fn script(config: &SlurmConfig, threads: usize, binary: &Path, work_dir: &Pa
         ("mem", &config.mem),
     ] {
         if let Some(v) = value {
-            opt(format!("--{name}={v}"));
+            s += &sbatch_line(name, &format!("--{name}={v}"))?;
         }
     }
     for o in &config.sbatch_options {
-        opt(o.clone());
+        s += &sbatch_line("sbatch_options entry", o)?;
     }
     s += &format!(
         "exec {} -q study-job {} \"$SLURM_ARRAY_TASK_ID\"\n",
         sh_quote(&binary.display().to_string()),
         sh_quote(&work_dir.display().to_string())
     );
-    s
+    Ok(s)
+}
+
+/// `--chdir=CWD` and `--output=WORK/slurm/logs/%A_%a.out`, each one
+/// argument of `sbatch` (so spaces need no quoting); `%` in the path is
+/// written `%%` (sbatch(1), "filename pattern"). A backslash would turn
+/// off the `%A`/`%a` replacement of the whole pattern, so such a work
+/// directory is refused.
+pub fn path_options(work_dir: &Path, cwd: &Path) -> Result<Vec<String>, ExecutorError> {
+    let logs = work_dir.join("slurm/logs").display().to_string();
+    if logs.contains('\\') {
+        return Err(ExecutorError::Setting {
+            name: "work directory".into(),
+            value: work_dir.display().to_string(),
+            why: "has a backslash, which turns off the %A_%a of sbatch's --output pattern",
+        });
+    }
+    Ok(vec![format!("--chdir={}", cwd.display()), format!("--output={}/%A_%a.out", logs.replace('%', "%%"))])
 }
 
 struct Executor<'a> {
@@ -98,6 +133,9 @@ struct Executor<'a> {
     binary: PathBuf,
     cwd: PathBuf,
     work_dir: PathBuf,
+    /// Whether `sacct` answers (the cluster keeps accounting); `None`
+    /// until it was first asked.
+    accounting: Option<bool>,
 }
 
 impl Executor<'_> {
@@ -113,18 +151,46 @@ impl Executor<'_> {
         }
         for (threads, indices) in by_threads {
             let path = self.dir.join(format!("array-{}.sh", self.submitted.arrays.len()));
-            let text = script(self.config, threads, &self.binary, &self.work_dir, &self.cwd);
+            let text = script(self.config, threads, &self.binary, &self.work_dir)?;
             std::fs::write(&path, text).map_err(io(&path))?;
-            let job_id = sbatch(&path, &indices, self.config.max_running)?;
+            let options = path_options(&self.work_dir, &self.cwd)?;
+            let job_id = sbatch(&path, &indices, self.config.max_running, &options)?;
             for &i in &indices {
                 self.tracked.insert(i, Tracked { job_id, gone_since: None });
                 *self.attempts.entry(i).or_default() += 1;
             }
             self.submitted.arrays.push(Submission { job_id, indices, script: path });
             let text = serde_json::to_string_pretty(&self.submitted).unwrap_or_default();
-            std::fs::write(self.state_path(), text).map_err(io(self.state_path()))?;
+            write_atomically(&self.state_path(), text.as_bytes()).map_err(|e| ExecutorError::Io {
+                path: self.state_path(),
+                source: std::io::Error::other(format!("{e:#}")),
+            })?;
         }
         Ok(())
+    }
+
+    /// The states of the tasks of `ids`: from `sacct` where the cluster
+    /// keeps accounting (tasks it has not recorded yet from `squeue`), else
+    /// from `squeue` alone.
+    fn states(&mut self, ids: BTreeSet<u64>) -> Result<BTreeMap<TaskId, String>, ExecutorError> {
+        let ids: Vec<u64> = ids.into_iter().collect();
+        if self.accounting != Some(false) {
+            match sacct(&ids) {
+                Ok(mut states) => {
+                    self.accounting = Some(true);
+                    let unrecorded = self.tracked.iter().any(|(i, t)| !states.contains_key(&(t.job_id, *i)));
+                    if unrecorded {
+                        for (task, state) in squeue(&ids)? {
+                            states.entry(task).or_insert(state);
+                        }
+                    }
+                    return Ok(states);
+                }
+                Err(_) if self.accounting.is_none() => self.accounting = Some(false),
+                Err(e) => return Err(e),
+            }
+        }
+        squeue(&ids)
     }
 
     /// The tasks of earlier runs still queued or running, for jobs in `pending`.
@@ -135,8 +201,7 @@ impl Executor<'_> {
                 latest.insert(i, s.job_id);
             }
         }
-        let ids: BTreeSet<u64> = latest.values().copied().collect();
-        let queue = squeue(&ids.into_iter().collect::<Vec<_>>())?;
+        let queue = self.states(latest.values().copied().collect())?;
         for (&(job_id, index), state) in &queue {
             if is_active(state) && pending.contains(&index) && latest.get(&index) == Some(&job_id) {
                 self.tracked.insert(index, Tracked { job_id, gone_since: None });
@@ -149,8 +214,7 @@ impl Executor<'_> {
     /// One look at the queue: the jobs done, lost (with their last state)
     /// and the tasks running and pending.
     fn poll(&mut self) -> Result<Look, ExecutorError> {
-        let ids: BTreeSet<u64> = self.tracked.values().map(|t| t.job_id).collect();
-        let queue = squeue(&ids.into_iter().collect::<Vec<_>>())?;
+        let queue = self.states(self.tracked.values().map(|t| t.job_id).collect())?;
         let grace = Duration::from_secs_f64(self.config.result_grace_s);
         let (mut done, mut lost, mut running, mut pending) = (Vec::new(), Vec::new(), 0, 0);
         for (&index, t) in &mut self.tracked {
@@ -234,6 +298,7 @@ pub fn run_slurm(
         binary,
         work_dir: cwd.join(&plan.work_dir),
         cwd,
+        accounting: None,
     };
     let pending_at_start = plan.pending();
     ex.adopt(&pending_at_start)?;
@@ -268,7 +333,15 @@ pub fn run_slurm(
             ex.submit(&again)?;
         }
         let slurm_jobs = ex.job_ids();
-        progress(&Progress { jobs: plan.jobs.len(), done, running, pending, retried, slurm_jobs });
+        progress(&Progress {
+            jobs: plan.jobs.len(),
+            done,
+            running,
+            pending,
+            retried,
+            slurm_jobs,
+            ..Progress::default()
+        });
     }
     if !failed.is_empty() {
         return Err(ExecutorError::Failed {
@@ -292,21 +365,35 @@ mod tests {
             sbatch_options: vec!["--qos=short".into()],
             ..SlurmConfig::default()
         };
-        let s = script(&config, 2, Path::new("/opt/bin/slidetrack"), Path::new("/w/it's"), Path::new("/w"));
+        let s = script(&config, 2, Path::new("/opt/my bin/slidetrack"), Path::new("/w/it's here"))
+            .expect("script");
         assert!(s.starts_with("#!/bin/sh\n"), "{s}");
         for line in [
             "#SBATCH --cpus-per-task=2",
             "#SBATCH --partition=cpu",
             "#SBATCH --time=00:30:00",
             "#SBATCH --qos=short",
-            "#SBATCH --chdir=/w",
         ] {
             assert!(s.lines().any(|l| l == line), "{line} missing from\n{s}");
         }
-        assert!(!s.contains("--account") && !s.contains("--mem"), "{s}");
+        assert!(!s.contains("--account") && !s.contains("--mem") && !s.contains("--chdir"), "{s}");
         assert!(
-            s.ends_with("exec '/opt/bin/slidetrack' -q study-job '/w/it'\\''s' \"$SLURM_ARRAY_TASK_ID\"\n"),
+            s.ends_with(
+                "exec '/opt/my bin/slidetrack' -q study-job '/w/it'\\''s here' \"$SLURM_ARRAY_TASK_ID\"\n"
+            ),
             "{s}"
         );
+    }
+
+    #[test]
+    fn paths_with_spaces_go_on_the_command_line_and_white_space_in_settings_is_refused() {
+        let o = path_options(Path::new("/data/my study/100% work"), Path::new("/home/a b")).expect("options");
+        assert_eq!(o, ["--chdir=/home/a b", "--output=/data/my study/100%% work/slurm/logs/%A_%a.out"]);
+        let e = path_options(Path::new("/w\\x"), Path::new("/")).expect_err("backslash refused");
+        assert!(e.to_string().starts_with("work directory `/w\\x`: has a backslash"), "{e}");
+        let config = SlurmConfig { partition: Some("gpu large".into()), ..SlurmConfig::default() };
+        let e = script(&config, 1, Path::new("/b"), Path::new("/w")).expect_err("white space refused");
+        assert_eq!(e.to_string().lines().count(), 1, "{e}");
+        assert!(e.to_string().starts_with("partition `--partition=gpu large`: has white space"), "{e}");
     }
 }

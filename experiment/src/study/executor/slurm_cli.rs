@@ -1,7 +1,9 @@
 //! Slurm's commands as the executor uses them: `sbatch` to submit an array,
-//! `squeue` for the tasks still known to the controller, and `sacct` or
-//! `scontrol show job` for the final state of a task that left the queue
-//! without a result. Their outputs are parsed here (unit-tested below).
+//! `sacct` for the tasks' states where the cluster keeps accounting,
+//! `squeue` for the tasks still known to the controller where it does not,
+//! and `scontrol show job` for the final state of a task that left the
+//! queue without a result. Their outputs are parsed here (unit-tested
+//! below, `sacct`'s on output captured from a real cluster).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -35,13 +37,17 @@ pub fn array_spec(indices: &[usize], max_running: Option<u32>) -> String {
     }
 }
 
-/// Submits `script` as an array of `indices`; returns the array job's id.
-pub fn sbatch(script: &Path, indices: &[usize], max_running: Option<u32>) -> Result<u64, ExecutorError> {
-    let args = vec![
-        "--parsable".to_string(),
-        format!("--array={}", array_spec(indices, max_running)),
-        script.display().to_string(),
-    ];
+/// Submits `script` as an array of `indices`, with `options` (each one
+/// argument: paths with spaces need no quoting); returns the array job's id.
+pub fn sbatch(
+    script: &Path,
+    indices: &[usize],
+    max_running: Option<u32>,
+    options: &[String],
+) -> Result<u64, ExecutorError> {
+    let mut args = vec!["--parsable".to_string(), format!("--array={}", array_spec(indices, max_running))];
+    args.extend(options.iter().cloned());
+    args.push(script.display().to_string());
     let out = run("sbatch", &args)?;
     parse_sbatch(&out).ok_or_else(|| ExecutorError::Slurm {
         command: format!("sbatch {}", args.join(" ")),
@@ -77,13 +83,36 @@ pub fn squeue(jobs: &[u64]) -> Result<BTreeMap<TaskId, String>, ExecutorError> {
     }
 }
 
-/// Lines `ID_INDEX|STATE` of `squeue -r -o '%i|%T'`; a not yet expanded
-/// `ID_[1-3,5%2]` stands for each of its indices.
+/// The states of the tasks of `jobs` from the accounting database:
+/// `sacct -n -P -X -o JobID,State -j IDS` (with `-j` and no `-S`, every
+/// job since the epoch, sacct(1)). `Err` where the cluster keeps no
+/// accounting (`sacct` then fails: "Slurm accounting storage is disabled").
+pub fn sacct(jobs: &[u64]) -> Result<BTreeMap<TaskId, String>, ExecutorError> {
+    if jobs.is_empty() {
+        return Ok(BTreeMap::new());
+    }
+    let ids: Vec<String> = jobs.iter().map(u64::to_string).collect();
+    let args = ["-n", "-P", "-X", "-o", "JobID,State", "-j"]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([ids.join(",")])
+        .collect::<Vec<_>>();
+    Ok(parse_squeue(&run("sacct", &args)?))
+}
+
+/// Lines `ID_INDEX|STATE` of `squeue -r -o '%i|%T'` or of `sacct -P -o
+/// JobID,State` (further `|` fields ignored); a not yet expanded
+/// `ID_[1-3,5%2]` stands for each of its indices; job steps
+/// (`ID_INDEX.batch`) and jobs that are not array tasks are left out.
 pub fn parse_squeue(out: &str) -> BTreeMap<TaskId, String> {
     let mut tasks = BTreeMap::new();
     for line in out.lines() {
-        let Some((id, state)) = line.trim().split_once('|') else { continue };
+        let mut fields = line.trim().split('|');
+        let (Some(id), Some(state)) = (fields.next(), fields.next()) else { continue };
         let Some((job, index)) = id.split_once('_') else { continue };
+        if index.contains('.') {
+            continue;
+        }
         let Ok(job) = job.parse::<u64>() else { continue };
         for index in parse_indices(index) {
             tasks.insert((job, index), state.trim().to_string());
@@ -130,17 +159,10 @@ pub fn is_active(state: &str) -> bool {
     )
 }
 
-/// The final state of a task that left the queue: from `sacct` where the
-/// cluster keeps accounting, else from `scontrol show job` while the
-/// controller remembers it, else `unknown`.
+/// The final state of a task that left the queue (without accounting):
+/// from `scontrol show job` while the controller remembers it, else `unknown`.
 pub fn final_state(task: TaskId) -> String {
     let id = format!("{}_{}", task.0, task.1);
-    let sacct = ["-n", "-P", "-X", "-o", "State", "-j", id.as_str()].map(String::from);
-    if let Ok(out) = run("sacct", &sacct)
-        && let Some(state) = out.lines().map(str::trim).find(|l| !l.is_empty())
-    {
-        return state.to_string();
-    }
     if let Ok(out) = run("scontrol", &["show".into(), "job".into(), id])
         && let Some(state) = parse_scontrol_state(&out)
     {
@@ -181,6 +203,35 @@ mod tests {
                 && !is_active("FAILED")
         );
         assert!(!is_active("CANCELLED by 0"));
+    }
+
+    /// `sacct -P -j ID -o jobid,state,exitcode,nodelist` of a two-task array
+    /// on a real cluster (NERSC's Cori), as captured in
+    /// <https://github.com/reframe-hpc/reframe/issues/839>: the tasks and
+    /// their steps (`.batch`, `.extern`, `.0`), `|`-separated with no
+    /// trailing `|` (sacct(1), `--parsable2`).
+    const SACCT_CORI: &str = "JobID|State|ExitCode|NodeList
+22423095_1|COMPLETED|0:0|nid0[2544-2545]
+22423095_1.batch|COMPLETED|0:0|nid02544
+22423095_1.extern|COMPLETED|0:0|nid0[2544-2545]
+22423095_1.0|COMPLETED|0:0|nid0[2544-2545]
+22423095_0|RUNNING|0:0|nid0[2517-2518]
+22423095_0.extern|RUNNING|0:0|nid0[2517-2518]
+";
+
+    #[test]
+    fn sacct_parsable_output_gives_each_tasks_state_and_skips_steps() {
+        let t = parse_squeue(SACCT_CORI);
+        assert_eq!(t.len(), 2, "{t:?}");
+        assert_eq!(t.get(&(22423095, 1)).map(String::as_str), Some("COMPLETED"));
+        assert_eq!(t.get(&(22423095, 0)).map(String::as_str), Some("RUNNING"));
+        // A cancelled task's state followed by who cancelled it (sacct(1),
+        // State: "the UID that CANCELLED a job"); a pending array not yet
+        // split into tasks as its index range, as squeue prints it.
+        let t = parse_squeue("7_2|CANCELLED by 1000\n7_[3-4%1]|PENDING\n7_0|FAILED\n");
+        assert_eq!(t.get(&(7, 2)).map(String::as_str), Some("CANCELLED by 1000"));
+        assert!(!is_active(&t[&(7, 2)]) && !is_active(&t[&(7, 0)]) && is_active(&t[&(7, 4)]));
+        assert_eq!(t.len(), 4);
     }
 
     #[test]

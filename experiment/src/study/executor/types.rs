@@ -90,9 +90,20 @@ impl SlurmConfig {
     }
 }
 
+/// Where the study's jobs run.
+#[derive(Clone, Debug)]
+pub enum Executor {
+    /// Here, `StudySpec::threads` at a time.
+    Local,
+    /// As Slurm job arrays.
+    Slurm(SlurmConfig),
+}
+
 /// Where the study's jobs stand, for a progress bar.
 #[derive(Clone, Debug, Default)]
 pub struct Progress {
+    /// The stage: `collect`, `label` or `train`.
+    pub stage: String,
     /// Jobs of the study.
     pub jobs: usize,
     /// Jobs with a valid result.
@@ -112,7 +123,7 @@ pub struct Progress {
 pub struct JobReport {
     /// Its index in the plan (the array task id under Slurm).
     pub index: usize,
-    /// Its name (the model's).
+    /// Its name (the model's, or the session's file stem).
     pub name: String,
     /// Whether its result was already there before this run (resumed).
     pub reused: bool,
