@@ -174,6 +174,9 @@ impl Executor<'_> {
     /// from `squeue` alone.
     fn states(&mut self, ids: BTreeSet<u64>) -> Result<BTreeMap<TaskId, String>, ExecutorError> {
         let ids: Vec<u64> = ids.into_iter().collect();
+        if ids.is_empty() {
+            return Ok(BTreeMap::new());
+        }
         if self.accounting != Some(false) {
             match sacct(&ids) {
                 Ok(mut states) => {
@@ -186,8 +189,14 @@ impl Executor<'_> {
                     }
                     return Ok(states);
                 }
-                Err(_) if self.accounting.is_none() => self.accounting = Some(false),
-                Err(e) => return Err(e),
+                // No accounting on this cluster: squeue from now on. (Once
+                // sacct has answered, a failure is taken as passing, and
+                // this look uses squeue.)
+                Err(_) => {
+                    if self.accounting.is_none() {
+                        self.accounting = Some(false);
+                    }
+                }
             }
         }
         squeue(&ids)
