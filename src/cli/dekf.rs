@@ -316,8 +316,9 @@ pub struct StudyArgs {
     /// Trainings run at the same time, one core each (0: every core).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Where the trainings run: `local` (here) or `slurm` (a Slurm job
-    /// array, one task per model; see `--slurm` and `docs/cluster.md`).
+    /// Where the study's jobs run (collecting, labelling, training):
+    /// `local` (here) or `slurm` (Slurm job arrays, one task per trial,
+    /// session or model; see `--slurm` and `docs/cluster.md`).
     #[arg(long, value_enum, default_value_t = ExecutorArg::Local)]
     pub executor: ExecutorArg,
     /// Directory of the study's jobs: job files, results, Slurm scripts
