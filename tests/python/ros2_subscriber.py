@@ -27,13 +27,15 @@ from cyclonedds.util import duration
 sys.path.insert(0, str(Path(__file__).parent))
 from ros2_types import HandState, SlidingEstimate, TactileRaw  # noqa: E402
 
-# ROS 2's QoS profiles: sensor data is best effort, keep last 5; the
-# default is reliable, keep last 10 (a reliable reader does not match a
-# best-effort writer).
-SENSOR = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(5), Policy.Durability.Volatile)
+# The reliability of ROS 2's QoS profiles: sensor data best effort, the
+# default reliable (a reliable reader does not match a best-effort writer).
+# The readers keep every sample until taken (history is not matched between
+# writer and reader): a slow Python on a loaded machine loses nothing to a
+# keep-last depth of 5.
+SENSOR = Qos(Policy.Reliability.BestEffort, Policy.History.KeepAll, Policy.Durability.Volatile)
 DEFAULT = Qos(
     Policy.Reliability.Reliable(duration(milliseconds=100)),
-    Policy.History.KeepLast(10),
+    Policy.History.KeepAll,
     Policy.Durability.Volatile,
 )
 TOPICS = [
