@@ -18,7 +18,9 @@
 #     calibration/tests/board_python.rs), and PyTorch (the
 #     dEKF's PyTorch twin, scripts/dekf_torch_train.py, checked against the
 #     golden file by tests/dekf_golden.rs; from PyPI, about 5 GB, on CPU),
-#     and rosbags (the independent ROS 2 bag reader of tests/ros2_bag.rs).
+#     rosbags (the independent ROS 2 bag reader of tests/ros2_bag.rs) and
+#     cyclonedds (Eclipse Cyclone DDS, the independent DDS of tests/ros2_live.rs;
+#     its wheel bundles the C library).
 # Runs apt-get through sudo only when not root. `--test` is `--test-system`
 # (the system packages, python3-venv included) followed by `--test-python`
 # (target/pyenv); scripts/test runs the second while the workspace compiles.
@@ -101,4 +103,12 @@ if [ "$python" = 1 ]; then
     echo "setup: installing rosbags into target/pyenv (the independent ROS 2 bag reader)" >&2
     target/pyenv/bin/python -m pip install -q 'rosbags==0.11.9'
   fi
+  # --- begin: Cyclone DDS (tests/ros2_live.rs) ---
+  # Eclipse Cyclone DDS's Python binding: its manylinux wheel bundles the C
+  # library (libddsc), so nothing is installed system-wide.
+  if ! target/pyenv/bin/python -c 'import cyclonedds.domain' 2>/dev/null; then
+    echo "setup: installing cyclonedds into target/pyenv (the independent DDS of the ROS 2 topics' tests)" >&2
+    target/pyenv/bin/python -m pip install -q 'cyclonedds==11.0.1'
+  fi
+  # --- end: Cyclone DDS ---
 fi

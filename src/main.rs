@@ -19,7 +19,10 @@ fn main() -> ExitCode {
     // The Foxglove SDK reports each message it could not send to a viewer
     // that went away: one line per message. The live view's own summary
     // says what matters; -vv shows the SDK's lines.
-    let foxglove = if cli.verbose >= 2 { "" } else { ",foxglove=off" };
+    // RustDDS (--ros2) likewise logs its own shutdown (a discovery writer it
+    // could not remove once its event loop stopped) as errors; the ROS 2
+    // summary says what was published and dropped; -vv shows RustDDS's lines.
+    let foxglove = if cli.verbose >= 2 { "" } else { ",foxglove=off,rustdds=off" };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("{level}{foxglove}")));
     tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).without_time().init();

@@ -63,8 +63,9 @@ pub const ALLOWED_DEPENDENCIES: &[Rule] = &[
     rule("calibration", &["core", "session", "estimators"],                                &["sim"]),
     rule("vision",      &["core", "render", "session", "estimators", "calibration"],       &["sim"]),
     rule("live",        &["core", "session"],                                              &[]),
+    rule("ros2",        &["core", "session"],                                              &[]),
     rule("experiment",  &["core", "render", "sim", "session", "drivers", "estimators",
-                          "control", "calibration", "vision", "live"],                     &[]),
+                          "control", "calibration", "vision", "live", "ros2"],             &[]),
     // The CLI parses, converts and prints: its commands go through `experiment`.
     rule("slidetrack",  &["core", "session", "experiment"],
                         &["sim", "drivers", "estimators", "vision", "live"]),

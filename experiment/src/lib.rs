@@ -27,6 +27,7 @@ pub mod marker;
 pub mod observer;
 #[cfg(test)]
 mod observer_encoding_tests;
+pub mod outlets;
 pub mod pipeline;
 pub mod planar_eval;
 pub mod plot;

@@ -123,7 +123,8 @@ pub fn record_devices(
     } = setup;
     let mut hand_monitor = rig.hand_monitor.take();
     let metadata = record_metadata(spec, rig_name, &tactile_info, extra_metadata)?;
-    let options = RecorderOptions { overwrite: spec.overwrite, ..RecorderOptions::default() };
+    let options =
+        RecorderOptions { overwrite: spec.overwrite, live: spec.live.clone(), ..RecorderOptions::default() };
     let recorder = Recorder::create_with_options(&spec.path, metadata, options)?;
     start_recording(rgbd.as_mut(), &recorder.logger())?;
     let with_truth = rig.truth.is_some();

@@ -110,6 +110,9 @@ pub struct RecordArgs {
     /// Seed of the simulated devices (simulated or emulated roles only).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// The live view and ROS 2 topics.
+    #[command(flatten)]
+    pub live: LiveArgs,
 }
 
 /// Arguments of `demo`.
@@ -147,6 +150,9 @@ pub enum BenchWhat {
     /// Collecting with and without `--live`, a viewer subscribed to every
     /// channel that never reads (one core; target: at most 10 % slower).
     CollectLive,
+    /// Collecting with and without `--ros2`, a DDS subscriber to every
+    /// topic that never reads (one core; target: at most 10 % slower).
+    CollectRos2,
 }
 
 /// Arguments of `bench`.

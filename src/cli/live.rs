@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 use slidetrack_experiment::live_view::DEFAULT_LIVE_ADDR;
 
-/// Publishing a run live to Foxglove (`collect`, `track`).
+/// Publishing a run live to Foxglove or as ROS 2 topics (`collect`, `track`, `record`).
 #[derive(Debug, Args, Clone, PartialEq)]
 pub struct LiveArgs {
     /// Also publish every recorded channel live, same topics and schemas, to
@@ -18,6 +18,14 @@ pub struct LiveArgs {
     /// one). Only images are thinned; the session keeps them all.
     #[arg(long, value_name = "HZ", default_value_t = 15.0, requires = "live")]
     pub live_image_hz: f64,
+    /// Also publish the recorded tactile scans, hand state, estimates,
+    /// images and /tf as ROS 2 topics over DDS (no ROS installation needed;
+    /// see docs/ros2.md). The recording never waits for a subscriber.
+    #[arg(long, conflicts_with = "live")]
+    pub ros2: bool,
+    /// With --ros2: the ROS 2 domain id (default: ROS_DOMAIN_ID, else 0).
+    #[arg(long, value_name = "N", requires = "ros2")]
+    pub ros2_domain: Option<u32>,
 }
 
 /// Arguments of `play`.

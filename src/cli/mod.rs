@@ -242,6 +242,23 @@ mod tests {
     }
 
     #[test]
+    fn ros2_takes_a_domain_and_is_on_collect_track_and_record() {
+        let parse = |args: &[&str]| Cli::try_parse_from([&["slidetrack"], args].concat());
+        let Command::Track(a) =
+            parse(&["track", "--model", "m", "--ros2", "--ros2-domain", "7"]).unwrap().command
+        else {
+            panic!("not track")
+        };
+        assert_eq!((a.run.live.ros2, a.run.live.ros2_domain), (true, Some(7)));
+        let Command::Record(a) = parse(&["record", "--out", "o.mcap", "--ros2"]).unwrap().command else {
+            panic!("not record")
+        };
+        assert_eq!((a.live.ros2, a.live.ros2_domain), (true, None));
+        assert!(parse(&["collect", "--ros2-domain", "7"]).is_err(), "--ros2-domain needs --ros2");
+        assert!(parse(&["collect", "--ros2", "--live"]).is_err(), "one outlet per run");
+    }
+
+    #[test]
     fn replay_runs_without_a_model_but_plots_only_with_one() {
         let parse = |args: &[&str]| Cli::try_parse_from([&["slidetrack", "replay", "s.mcap"], args].concat());
         let Command::Replay(a) = parse(&["--out", "o.mcap"]).unwrap().command else { panic!("not replay") };

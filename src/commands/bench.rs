@@ -78,21 +78,40 @@ fn run_in(args: &BenchArgs, dir: &std::path::Path) -> Result<()> {
             print_collect(args, &two, &results);
         }
     }
-    if args.what.contains(&BenchWhat::CollectLive) {
-        if !args.json {
-            println!("{}", bench::live::header(&options(args), cpu));
+    for what in [BenchWhat::CollectLive, BenchWhat::CollectRos2] {
+        if args.what.contains(&what) {
+            collect_outlet(args, what, cpu, dir, &mut report)?;
         }
-        let json = args.json;
-        let mut on_line = |line: String| {
-            if !json {
-                println!("{line}");
-            }
-        };
-        report.insert("collect_live".into(), json!(bench::live::measure(&options(args), dir, &mut on_line)?));
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     }
+    Ok(())
+}
+
+/// `collect-live` or `collect-ros2`: collecting with and without an outlet.
+fn collect_outlet(
+    args: &BenchArgs,
+    what: BenchWhat,
+    cpu: usize,
+    dir: &std::path::Path,
+    report: &mut serde_json::Map<String, serde_json::Value>,
+) -> Result<()> {
+    let json = args.json;
+    let mut on_line = |line: String| {
+        if !json {
+            println!("{line}");
+        }
+    };
+    let options = options(args);
+    let (key, results) = if what == BenchWhat::CollectLive {
+        on_line(bench::live::header(&options, cpu));
+        ("collect_live", bench::live::measure(&options, dir, &mut on_line)?)
+    } else {
+        on_line(bench::ros2::header(&options, cpu));
+        ("collect_ros2", bench::ros2::measure(&options, dir, &mut on_line)?)
+    };
+    report.insert(key.into(), json!(results));
     Ok(())
 }
 

@@ -6,7 +6,6 @@ use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use slidetrack_core::TimeNs;
 use slidetrack_experiment::collect_vision::{CollectedTrial, collect_trial};
-use slidetrack_experiment::live_view::LiveView;
 use slidetrack_experiment::rig::{RigKind, TrialSpec};
 use slidetrack_experiment::trial::{TrialReport, prepare_out_dir, session_file_name};
 use slidetrack_experiment::trial_inputs::TrialInputs;
@@ -54,7 +53,7 @@ pub fn collect(args: &CollectArgs, quiet: bool) -> Result<Vec<TrialReport>> {
             realtime: args.run.realtime,
             overwrite: args.run.overwrite,
             path,
-            live: live.as_ref().map(LiveView::tap),
+            live: live.tap(),
         };
         let mut progress = |t: TimeNs| {
             bar.set_position(offset_ms + ((t.as_secs_f64() * 1e3) as u64).min(per_trial_ms));

@@ -26,6 +26,8 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         prepare_out_dir(dir)?;
     }
+    // Before any device moves: an address or domain that cannot serve stops here.
+    let outlets = super::live::start(&args.live)?;
     let spec = TrialSpec {
         rig: &rig,
         object: &object,
@@ -37,7 +39,7 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         realtime: false,
         overwrite: args.overwrite,
         path: args.out.clone(),
-        live: None,
+        live: outlets.tap(),
     };
     let stop = super::stop_flag("closing the session (the hand is left as it is)");
     let bar = progress_bar(args, quiet);
@@ -49,8 +51,10 @@ pub fn run(args: &RecordArgs, quiet: bool) -> Result<()> {
         }
     };
     let setup = build_rig_with(kind, &spec, HandUse::Watch)?;
-    let report = record_devices(setup, &spec, args.duration, &stop, &mut progress)?;
+    let report = record_devices(setup, &spec, args.duration, &stop, &mut progress);
     bar.finish_and_clear();
+    super::live::finish(outlets);
+    let report = report?;
     println!("{}", report.summary_line());
     if let Some(counters) = report.stats.decoder {
         println!("  tactile decoder: {counters}");

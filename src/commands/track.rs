@@ -5,7 +5,6 @@
 
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use slidetrack_experiment::live_view::LiveView;
 use slidetrack_experiment::tracked_trial::{TrackOptions, TrackRig, TrackRun, TrackedTrial, TrialHooks};
 use slidetrack_experiment::tracking::CameraVisionSummary;
 use slidetrack_experiment::vision::TrackerKind;
@@ -26,7 +25,7 @@ pub fn run(args: &TrackArgs, quiet: bool) -> Result<()> {
         stop: &|| super::stop_flag(super::RELEASING),
         show: Box::new(move |text: &str| line.set_message(text.to_string())),
     };
-    let tracked = run.run(live.as_ref().map(LiveView::tap), hooks);
+    let tracked = run.run(live.tap(), hooks);
     display.finish_and_clear();
     super::live::finish(live);
     let tracked = tracked?;

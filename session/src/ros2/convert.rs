@@ -32,6 +32,21 @@ pub struct Ros2Message {
     pub data: Vec<u8>,
 }
 
+/// The ROS 2 type and topic a message of `schema` on `topic` converts to;
+/// `None` for a schema without a ROS 2 counterpart (see the module table).
+pub fn ros2_type<'a>(schema: &str, topic: &'a str) -> Option<(&'static str, &'a str)> {
+    Some(match schema {
+        "slidetrack.TactileRaw" => ("slidetrack_msgs/msg/TactileRaw", topic),
+        "slidetrack.HandState" => ("slidetrack_msgs/msg/HandState", topic),
+        "slidetrack.SlidingEstimate" => ("slidetrack_msgs/msg/SlidingEstimate", topic),
+        "foxglove.CompressedImage" => ("sensor_msgs/msg/CompressedImage", topic),
+        "foxglove.RawImage" => ("sensor_msgs/msg/Image", topic),
+        "foxglove.CameraCalibration" => ("sensor_msgs/msg/CameraInfo", topic),
+        "foxglove.FrameTransform" => ("tf2_msgs/msg/TFMessage", "/tf"),
+        _ => return None,
+    })
+}
+
 /// Converts one message of `schema` on `topic` logged at `log_time`;
 /// `Ok(None)` for a schema without a ROS 2 counterpart, `Err` with the JSON
 /// error when the payload does not decode as its schema.
@@ -41,39 +56,28 @@ pub fn convert(
     log_time: TimeNs,
     json: &[u8],
 ) -> Result<Option<Ros2Message>, serde_json::Error> {
+    let Some((ros_type, topic)) = ros2_type(schema, topic) else { return Ok(None) };
     let mut w = CdrWriter::new();
-    let (ros_type, topic) = match schema {
-        "slidetrack.TactileRaw" => {
-            tactile_raw(&mut w, log_time, &decode(json)?);
-            ("slidetrack_msgs/msg/TactileRaw", topic)
-        }
-        "slidetrack.HandState" => {
-            hand_state(&mut w, log_time, &decode(json)?);
-            ("slidetrack_msgs/msg/HandState", topic)
-        }
+    match schema {
+        "slidetrack.TactileRaw" => tactile_raw(&mut w, log_time, &decode(json)?),
+        "slidetrack.HandState" => hand_state(&mut w, log_time, &decode(json)?),
         "slidetrack.SlidingEstimate" => {
             let e: SlidingEstimate = decode(json)?;
             header(&mut w, stamp_of(log_time), "");
             w.f64(e.position).f64(e.velocity).f64_array(e.covariance.as_flattened());
-            ("slidetrack_msgs/msg/SlidingEstimate", topic)
         }
         "foxglove.CompressedImage" => {
             let m: CompressedImage = decode(json)?;
             header(&mut w, m.timestamp, &m.frame_id);
             w.string(&m.format).bytes(&m.data);
-            ("sensor_msgs/msg/CompressedImage", topic)
         }
         "foxglove.RawImage" => {
             let m: RawImage = decode(json)?;
             header(&mut w, m.timestamp, &m.frame_id);
             // Foxglove's raw images are little-endian (is_bigendian 0).
             w.u32(m.height).u32(m.width).string(&m.encoding).u8(0).u32(m.step).bytes(&m.data);
-            ("sensor_msgs/msg/Image", topic)
         }
-        "foxglove.CameraCalibration" => {
-            camera_info(&mut w, &decode(json)?);
-            ("sensor_msgs/msg/CameraInfo", topic)
-        }
+        "foxglove.CameraCalibration" => camera_info(&mut w, &decode(json)?),
         "foxglove.FrameTransform" => {
             let m: FrameTransform = decode(json)?;
             w.seq_len(1);
@@ -81,10 +85,9 @@ pub fn convert(
             w.string(&m.child_frame_id);
             w.f64(m.translation.x).f64(m.translation.y).f64(m.translation.z);
             w.f64(m.rotation.x).f64(m.rotation.y).f64(m.rotation.z).f64(m.rotation.w);
-            ("tf2_msgs/msg/TFMessage", "/tf")
         }
         _ => return Ok(None),
-    };
+    }
     Ok(Some(Ros2Message { ros_type, topic: topic.to_string(), data: w.finish() }))
 }
 

@@ -9,5 +9,5 @@ mod definitions;
 
 pub use bag::{Ros2BagReport, export_ros2_bag};
 pub use cdr::{CDR_LE_HEADER, CdrWriter};
-pub use convert::{Ros2Message, convert};
+pub use convert::{Ros2Message, convert, ros2_type};
 pub use definitions::complete_definition;
