@@ -226,3 +226,19 @@ pub fn describe(r: &Value) -> String {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    /// The step's report: issue 29's 8 us target (it printed the dEKF
+    /// issue's 20 us after the target changed) and the step's CPU time,
+    /// which cannot exceed its wall time.
+    #[test]
+    fn the_step_is_reported_against_8_us_with_its_cpu_time() {
+        let r = super::step(1).expect("the step bench runs");
+        assert_eq!(r["target_us"].as_f64(), Some(8.0));
+        let (wall, cpu) = (r["median_us"].as_f64().unwrap(), r["cpu_median_us"].as_f64().unwrap());
+        assert!(cpu > 0.0 && cpu <= wall * 1.01 + 0.1, "CPU {cpu} us, wall {wall} us");
+        let line = super::describe(&r);
+        assert!(line.contains("target <= 8 us") && line.contains("us of CPU time"), "{line}");
+    }
+}

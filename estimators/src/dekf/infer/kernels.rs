@@ -388,7 +388,7 @@ mod tests {
         let want: Vec<u32> = (0..len as u32)
             .filter(|&i| {
                 let i = i as usize;
-                i % 4 == 0 || i % 5 == 1 || i == 10 || i == 26
+                i.is_multiple_of(4) || i % 5 == 1 || i == 10 || i == 26
             })
             .collect();
         let mut nz = vec![u32::MAX; len];
