@@ -4,28 +4,26 @@
 //! network is built, into steps that read and write slots of one buffer;
 //! every buffer is allocated then, none in a step.
 //!
-//! A network's value is one forward pass; the gradient of its scalar output
-//! with respect to a two-dimensional input (the Jacobians `F` and `H` of the
-//! dEKF) is one reverse pass over the same steps. Each linear layer keeps
-//! its weights column by column (the parameters' own layout) for the
-//! forward product `W x`, a sum of scaled columns, and row by row (the
-//! transpose) for the reverse product `W^T g`, a sum of scaled rows: both
-//! are the one register-blocked kernel of `kernels`, which skips the zero
-//! elements of the vector (the inputs a ReLU zeroed; in reverse, the
-//! gradients its slope zeroed). Where the input's activation has a zero
-//! slope the reverse result is zeroed, as the chain rule would. The
-//! activation is dispatched once per layer, outside the inner loops.
+//! A network's value is one forward pass. Its gradient with respect to a
+//! two-dimensional input (the Jacobians `F` and `H` of the dEKF) is carried
+//! forward with the value, as the batched pass does with its tangent
+//! columns: every slot holds a value and its two tangents (its derivatives
+//! with respect to the two inputs), and each linear layer computes the
+//! three products `W x + b`, `W t_0`, `W t_1` in one sweep over its
+//! weights (the parameters' own column-by-column layout), so each weight is
+//! read once per step and no transposed copy is kept. The products are the
+//! register-blocked kernels of `kernels`, which skip the inputs that are
+//! zero (the ones a ReLU zeroed, whose tangents it zeroed too). The value
+//! is the same sum as the value-only pass, term for term; the gradient is
+//! the reverse-mode one up to rounding. The activation is dispatched once
+//! per layer, outside the inner loops.
 //!
 //! A whole pass runs inside one dispatch to the instruction set found when
 //! the network was built (`kernels::Isa`): AVX2 with fused multiply-adds
 //! where the CPU has them, the build's baseline otherwise. The two differ
-//! only in rounding (the fused one rounds once per multiply-add; the sum
-//! of the timing aid's 40 000 feature values differs by 2e-7 relative). On
-//! the 2-core AMD EPYC of `docs/dekf.md` the three networks of one step
-//! take 7.9 us with AVX2+FMA against 12.2 us without (minimum of 200 runs
-//! of 200 steps,
-//! `cargo test --release -p slidetrack-estimators --lib time_the_networks
-//! -- --ignored --nocapture`).
+//! only in rounding (the fused one rounds once per multiply-add). Timing
+//! aid: `cargo test --release -p slidetrack-estimators --lib
+//! time_the_networks -- --ignored --nocapture` (see `docs/dekf.md`).
 
 use std::ops::Range;
 
@@ -34,29 +32,27 @@ use super::params::{Activation, Layer, LinearAt, NetAt};
 
 mod kernels;
 
-use kernels::{Fused, Isa, MulAdd, PORTABLE_BLOCK, Separate, V3_BLOCK, dot, mat_vec};
+#[cfg(target_arch = "x86_64")]
+use kernels::{Fused, V3_BLOCK, V3_TANGENT_BLOCK};
+use kernels::{
+    Isa, MulAdd, PORTABLE_BLOCK, PORTABLE_TANGENT_BLOCK, Separate, dot, mat_vec, mat_vec_tangents,
+};
 
 /// A linear layer with `width` outputs: its weights column by column (one
-/// column per input) and row by row (one row per output).
+/// column per input), as the parameters store them.
 #[derive(Clone, Debug)]
 struct Wide {
     /// `inp` columns of `width` weights, one after the other.
     columns: Vec<f32>,
-    /// The transpose: `width` rows of `inp` weights.
-    rows: Vec<f32>,
     bias: Vec<f32>,
 }
 
 impl Wide {
     fn new(p: &[f32], l: &LinearAt) -> Wide {
-        let columns = p[l.weight..l.weight + l.out * l.inp].to_vec();
-        let mut rows = vec![0.0; columns.len()];
-        for (i, column) in columns.chunks_exact(l.out).enumerate() {
-            for (o, w) in column.iter().enumerate() {
-                rows[o * l.inp + i] = *w;
-            }
+        Wide {
+            columns: p[l.weight..l.weight + l.out * l.inp].to_vec(),
+            bias: p[l.bias..l.bias + l.out].to_vec(),
         }
-        Wide { columns, rows, bias: p[l.bias..l.bias + l.out].to_vec() }
     }
 
     /// Number of outputs.
@@ -66,45 +62,21 @@ impl Wide {
 
     /// `y = W x + b`; `nz` is scratch as long as `x`.
     #[inline(always)]
-    fn forward<M: MulAdd, const B: usize>(&self, x: &[f32], y: &mut [f32], nz: &mut [u32]) {
-        mat_vec::<M, B>(&self.columns, Some(&self.bias), x, y, nz);
+    fn forward<M: MulAdd, const B: usize>(&self, isa: M, x: &[f32], y: &mut [f32], nz: &mut [u32]) {
+        mat_vec::<M, B>(isa, &self.columns, Some(&self.bias), x, y, nz);
     }
 
-    /// `g_x = W^T g_y`, skipping the rows where `g_y` is zero.
+    /// `y = W x + b` and the tangents `W t`, for `x` and its two tangents
+    /// in `[x, t_0, t_1]`; `nz` is scratch as long as `x`.
     #[inline(always)]
-    fn backward<M: MulAdd, const B: usize>(&self, gy: &[f32], gx: &mut [f32], nz: &mut [u32]) {
-        mat_vec::<M, B>(&self.rows, None, gy, gx, nz);
-    }
-
-    /// `g_x = W^T g_y` where `slope` (of the activation that made the
-    /// input) is not zero, 0 elsewhere. The slope itself is applied by the
-    /// caller.
-    #[inline(always)]
-    fn backward_where<M: MulAdd, const B: usize>(
+    fn forward_tangents<M: MulAdd, const B: usize>(
         &self,
-        gy: &[f32],
-        slope: &[f32],
-        gx: &mut [f32],
+        isa: M,
+        x: [&[f32]; 3],
+        y: [&mut [f32]; 3],
         nz: &mut [u32],
     ) {
-        self.backward::<M, B>(gy, gx, nz);
-        for (g, s) in gx.iter_mut().zip(slope) {
-            *g = if *s != 0.0 { *g } else { 0.0 };
-        }
-    }
-
-    /// `g_x = slope * (W^T g_y)`: the gradient at an activation's input
-    /// from its output's.
-    #[inline(always)]
-    fn backward_scaled<M: MulAdd, const B: usize>(
-        &self,
-        gy: &[f32],
-        slope: &[f32],
-        gx: &mut [f32],
-        nz: &mut [u32],
-    ) {
-        self.backward_where::<M, B>(gy, slope, gx, nz);
-        scale(gx, slope);
+        mat_vec_tangents::<M, B>(isa, &self.columns, &self.bias, x, y, nz);
     }
 }
 
@@ -125,9 +97,6 @@ enum Source {
     Slot {
         /// Its place in the buffer.
         at: Range<usize>,
-        /// True when an activation wrote it, so that its slopes are kept
-        /// (at the same place in the slope buffer).
-        activated: bool,
     },
 }
 
@@ -140,44 +109,59 @@ enum Step {
     Activation { activation: Activation, at: Range<usize> },
     /// A residual block on slot `from`: `a = act(fc1 h)` in slot `a`, the
     /// output `act(fc2 a + h)` in the slot after it.
-    Residual {
-        fc1: Wide,
-        fc2: Wide,
-        activation: Activation,
-        from: Range<usize>,
-        from_activated: bool,
-        a: Range<usize>,
-    },
+    Residual { fc1: Wide, fc2: Wide, activation: Activation, from: Range<usize>, a: Range<usize> },
     /// The last layer, with one output: `weight . h + bias`.
     Output { weight: Vec<f32>, bias: f32, from: Range<usize> },
 }
 
-/// One network with one output and scratch space for a forward and a
-/// reverse pass: the steps of its layers, and a value and a slope buffer
-/// with a slot for every layer's output (an activation works in place).
+/// Values and their two tangents by slot, the three at the same places of
+/// their own buffers (a borrowed view, split like a slice).
+struct Lanes<'a>([&'a mut [f32]; 3]);
+
+impl<'a> Lanes<'a> {
+    /// The slots before `at` and from `at` on.
+    fn split_at(self, at: usize) -> (Lanes<'a>, Lanes<'a>) {
+        let [v, t0, t1] = self.0.map(|l| l.split_at_mut(at));
+        (Lanes([v.0, t0.0, t1.0]), Lanes([v.1, t0.1, t1.1]))
+    }
+
+    /// Value and tangents of `r`.
+    fn get(&self, r: &Range<usize>) -> [&[f32]; 3] {
+        [&self.0[0][r.clone()], &self.0[1][r.clone()], &self.0[2][r.clone()]]
+    }
+
+    /// Value and tangents of `r`, writable.
+    fn get_mut(&mut self, r: &Range<usize>) -> [&mut [f32]; 3] {
+        let [v, t0, t1] = &mut self.0;
+        [&mut v[r.clone()], &mut t0[r.clone()], &mut t1[r.clone()]]
+    }
+}
+
+/// Applies `activation` to the values of `v` in place, keeping its slopes
+/// in `slopes`, and scales the tangents by them (the chain rule).
+#[inline(always)]
+fn activate_with_tangents(activation: Activation, [v, t0, t1]: [&mut [f32]; 3], slopes: &mut [f32]) {
+    activate_vector(activation, v, slopes);
+    scale(t0, slopes);
+    scale(t1, slopes);
+}
+
+/// One network with one output and scratch space for a forward pass, with
+/// or without tangents: the steps of its layers, and buffers with a slot
+/// for every layer's output (an activation works in place).
 #[derive(Clone, Debug)]
 pub struct FastNet {
     steps: Vec<Step>,
     /// Activation values by slot.
     values: Vec<f32>,
+    /// The two tangents of the values, by slot (as `values`).
+    tangents: [Vec<f32>; 2],
     /// The activation's slope at every value of an activated slot.
     slopes: Vec<f32>,
-    /// Gradient scratch: four vectors of the largest width.
-    scratch: Vec<f32>,
     /// Scratch for the indices of a vector's non-zero elements.
     nz: Vec<u32>,
-    /// The largest width of a layer (or input).
-    width: usize,
     /// The instruction set the kernels run with.
     isa: Isa,
-}
-
-/// The slot `(at, activated)` of `from`, or `None` for the input.
-fn slot(from: &Source) -> Option<(&Range<usize>, bool)> {
-    match from {
-        Source::Input => None,
-        Source::Slot { at, activated } => Some((at, *activated)),
-    }
 }
 
 impl FastNet {
@@ -195,61 +179,55 @@ impl FastNet {
         let last = net.layers.len() - 1;
         for (i, layer) in net.layers.iter().enumerate() {
             let slot_of = |current: &Source| match current {
-                Source::Slot { at, activated } => (at.clone(), *activated),
+                Source::Slot { at } => at.clone(),
                 Source::Input => unreachable!("layer {i} reads the input: only a linear layer may"),
             };
             match layer {
                 Layer::Linear(l) if i == last => {
                     assert_eq!(l.out, 1, "the fast path is for networks with one output");
-                    let from = slot_of(&current).0;
                     // [1, inp] column-major: one weight per input, contiguous.
                     steps.push(Step::Output {
                         weight: p[l.weight..l.weight + l.inp].to_vec(),
                         bias: p[l.bias],
-                        from,
+                        from: slot_of(&current),
                     });
                 }
                 Layer::Linear(l) => {
                     let to = new_slot(l.out);
-                    let from =
-                        std::mem::replace(&mut current, Source::Slot { at: to.clone(), activated: false });
+                    let from = std::mem::replace(&mut current, Source::Slot { at: to.clone() });
                     steps.push(Step::Linear { layer: Wide::new(p, l), from, to });
                 }
                 Layer::Activation(activation) => {
-                    let (at, _) = slot_of(&current);
-                    current = Source::Slot { at: at.clone(), activated: true };
-                    steps.push(Step::Activation { activation: *activation, at });
+                    steps.push(Step::Activation { activation: *activation, at: slot_of(&current) });
                 }
                 Layer::Residual { fc1, fc2, activation } => {
-                    let (from, from_activated) = slot_of(&current);
+                    let from = slot_of(&current);
                     let a = new_slot(fc1.out);
-                    let out = new_slot(fc2.out);
-                    current = Source::Slot { at: out, activated: true };
+                    current = Source::Slot { at: new_slot(fc2.out) };
                     let (fc1, fc2) = (Wide::new(p, fc1), Wide::new(p, fc2));
-                    steps.push(Step::Residual { fc1, fc2, activation: *activation, from, from_activated, a });
+                    steps.push(Step::Residual { fc1, fc2, activation: *activation, from, a });
                 }
             }
         }
         FastNet {
             steps,
             values: vec![0.0; len],
+            tangents: [vec![0.0; len], vec![0.0; len]],
             slopes: vec![0.0; len],
-            scratch: vec![0.0; 4 * width],
             nz: vec![0; width.max(net_inputs(net))],
-            width,
             isa: Isa::detect(),
         }
     }
 
-    /// The network's output for `input`, keeping the activations.
+    /// The network's output for `input`.
     pub fn value(&mut self, input: &[f32]) -> f32 {
         match self.isa {
             #[cfg(target_arch = "x86_64")]
             Isa::V3(simd) => simd.vectorize(
                 #[inline(always)]
-                || self.forward_pass::<Fused, V3_BLOCK>(input),
+                || self.forward_pass::<_, V3_BLOCK>(Fused(simd), input),
             ),
-            Isa::Portable => self.forward_pass::<Separate, PORTABLE_BLOCK>(input),
+            Isa::Portable => self.forward_pass::<_, PORTABLE_BLOCK>(Separate, input),
         }
     }
 
@@ -259,18 +237,15 @@ impl FastNet {
             #[cfg(target_arch = "x86_64")]
             Isa::V3(simd) => simd.vectorize(
                 #[inline(always)]
-                || (self.forward_pass::<Fused, V3_BLOCK>(&input), self.reverse_pass::<Fused, V3_BLOCK>()),
+                || self.tangent_pass::<_, V3_TANGENT_BLOCK>(Fused(simd), input),
             ),
-            Isa::Portable => (
-                self.forward_pass::<Separate, PORTABLE_BLOCK>(&input),
-                self.reverse_pass::<Separate, PORTABLE_BLOCK>(),
-            ),
+            Isa::Portable => self.tangent_pass::<_, PORTABLE_TANGENT_BLOCK>(Separate, input),
         }
     }
 
     /// [`FastNet::value`] with multiply-adds `M` and blocks of `B` outputs.
     #[inline(always)]
-    fn forward_pass<M: MulAdd, const B: usize>(&mut self, input: &[f32]) -> f32 {
+    fn forward_pass<M: MulAdd, const B: usize>(&mut self, isa: M, input: &[f32]) -> f32 {
         let mut y = 0.0;
         let nz = &mut self.nz;
         for step in &self.steps {
@@ -278,13 +253,16 @@ impl FastNet {
             match step {
                 Step::Linear { layer, from, to } => {
                     let (lo, hi) = values.split_at_mut(to.start);
-                    let x = slot(from).map_or(input, |(at, _)| &lo[at.clone()]);
-                    layer.forward::<M, B>(x, &mut hi[..to.len()], nz);
+                    let x = match from {
+                        Source::Input => input,
+                        Source::Slot { at } => &lo[at.clone()],
+                    };
+                    layer.forward::<M, B>(isa, x, &mut hi[..to.len()], nz);
                 }
                 Step::Activation { activation, at } => {
                     activate_vector(*activation, &mut values[at.clone()], &mut self.slopes[at.clone()]);
                 }
-                Step::Residual { fc1, fc2, activation, from, a, .. } => {
+                Step::Residual { fc1, fc2, activation, from, a } => {
                     // a = act(fc1 h), s = act(fc2 a + h).
                     let (lo, hi) = values.split_at_mut(a.start);
                     let h = &lo[from.clone()];
@@ -292,9 +270,9 @@ impl FastNet {
                     let sv = &mut sv[..fc2.outputs()];
                     let slopes = &mut self.slopes[a.start..a.end + sv.len()];
                     let (sa, ss) = slopes.split_at_mut(a.len());
-                    fc1.forward::<M, B>(h, av, nz);
+                    fc1.forward::<M, B>(isa, h, av, nz);
                     activate_vector(*activation, av, sa);
-                    fc2.forward::<M, B>(av, sv, nz);
+                    fc2.forward::<M, B>(isa, av, sv, nz);
                     for (si, hi) in sv.iter_mut().zip(h) {
                         *si += hi;
                     }
@@ -306,74 +284,57 @@ impl FastNet {
         y
     }
 
-    /// Reverse pass through a residual block: `g` holds the gradient at its
-    /// output on entry and at its input on return. The input's own
-    /// activation slope (when the input is an activation's output) is not
-    /// applied here; the gradient it would zero is zeroed.
+    /// [`FastNet::value_and_gradient`] with multiply-adds `M` and blocks
+    /// of `T` outputs: the forward pass carrying the derivatives of every
+    /// value with respect to the two inputs.
     #[inline(always)]
-    fn residual_back<M: MulAdd, const B: usize>(
-        &self,
-        step: &Step,
-        g: &mut [f32],
-        [ga, gh]: [&mut [f32]; 2],
-        nz: &mut [u32],
-    ) {
-        let Step::Residual { fc1, fc2, from, from_activated, a, .. } = step else { return };
-        let s = a.end..a.end + g.len();
-        let (ga, gh) = (&mut ga[..a.len()], &mut gh[..from.len()]);
-        scale(g, &self.slopes[s]);
-        fc2.backward_scaled::<M, B>(g, &self.slopes[a.clone()], ga, nz);
-        if *from_activated {
-            fc1.backward_where::<M, B>(ga, &self.slopes[from.clone()], gh, nz);
-        } else {
-            fc1.backward::<M, B>(ga, gh, nz);
-        }
-        for (gi, x) in g.iter_mut().zip(gh.iter()) {
-            *gi += x;
-        }
-    }
-
-    /// The gradient of the output with respect to the two-dimensional
-    /// input, after a forward pass.
-    #[inline(always)]
-    fn reverse_pass<M: MulAdd, const B: usize>(&mut self) -> [f32; 2] {
-        let w = self.width;
-        let mut scratch = std::mem::take(&mut self.scratch);
-        let mut nz = std::mem::take(&mut self.nz);
-        let (g, rest) = scratch.split_at_mut(w);
-        let (g1, rest) = rest.split_at_mut(w);
-        let (ga, gh) = rest.split_at_mut(w);
-        // The gradient at the current step's output: `cur[..n]`.
-        let (mut cur, mut other, mut n) = (g, g1, 0);
-        let mut gx = [0.0; 2];
-        for step in self.steps.iter().rev() {
+    fn tangent_pass<M: MulAdd, const T: usize>(&mut self, isa: M, input: [f32; 2]) -> (f32, [f32; 2]) {
+        // The input's tangents: the identity.
+        let input_tangents = [[1.0f32, 0.0], [0.0, 1.0]];
+        let mut out = (0.0, [0.0; 2]);
+        let nz = &mut self.nz;
+        let [t0, t1] = &mut self.tangents;
+        for step in &self.steps {
+            let lanes = Lanes([&mut self.values[..], &mut t0[..], &mut t1[..]]);
             match step {
-                Step::Output { weight, .. } => {
-                    n = weight.len();
-                    cur[..n].copy_from_slice(weight);
+                Step::Linear { layer, from, to } => {
+                    let (lo, mut hi) = lanes.split_at(to.start);
+                    let x = match from {
+                        Source::Input => [&input[..], &input_tangents[0][..], &input_tangents[1][..]],
+                        Source::Slot { at } => lo.get(at),
+                    };
+                    layer.forward_tangents::<M, T>(isa, x, hi.get_mut(&(0..to.len())), nz);
                 }
-                Step::Activation { at, .. } => scale(&mut cur[..n], &self.slopes[at.clone()]),
-                Step::Residual { .. } => {
-                    self.residual_back::<M, B>(step, &mut cur[..n], [&mut *ga, &mut *gh], &mut nz);
+                Step::Activation { activation, at } => {
+                    let mut lanes = lanes;
+                    activate_with_tangents(*activation, lanes.get_mut(at), &mut self.slopes[at.clone()]);
                 }
-                Step::Linear { layer, from, .. } => match slot(from) {
-                    None => layer.backward::<M, B>(&cur[..n], &mut gx, &mut nz),
-                    Some((at, activated)) => {
-                        let gx = &mut other[..at.len()];
-                        if activated {
-                            layer.backward_where::<M, B>(&cur[..n], &self.slopes[at.clone()], gx, &mut nz);
-                        } else {
-                            layer.backward::<M, B>(&cur[..n], gx, &mut nz);
+                Step::Residual { fc1, fc2, activation, from, a } => {
+                    // a = act(fc1 h), s = act(fc2 a + h), with tangents.
+                    let (lo, hi) = lanes.split_at(a.start);
+                    let h = lo.get(from);
+                    let (mut la, mut ls) = hi.split_at(a.len());
+                    let s = 0..fc2.outputs();
+                    let slopes = &mut self.slopes[a.start..a.end + s.len()];
+                    let (sa, ss) = slopes.split_at_mut(a.len());
+                    fc1.forward_tangents::<M, T>(isa, h, la.get_mut(&(0..a.len())), nz);
+                    activate_with_tangents(*activation, la.get_mut(&(0..a.len())), sa);
+                    fc2.forward_tangents::<M, T>(isa, la.get(&(0..a.len())), ls.get_mut(&s), nz);
+                    let mut sl = ls.get_mut(&s);
+                    for (lane, h) in sl.iter_mut().zip(h) {
+                        for (si, hi) in lane.iter_mut().zip(h.iter()) {
+                            *si += hi;
                         }
-                        n = at.len();
-                        std::mem::swap(&mut cur, &mut other);
                     }
-                },
+                    activate_with_tangents(*activation, sl, ss);
+                }
+                Step::Output { weight, bias, from } => {
+                    let [h, g0, g1] = lanes.get(from);
+                    out = (dot::<M>(weight, h) + bias, [dot::<M>(weight, g0), dot::<M>(weight, g1)]);
+                }
             }
         }
-        self.scratch = scratch;
-        self.nz = nz;
-        gx
+        out
     }
 }
 

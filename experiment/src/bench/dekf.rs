@@ -1,8 +1,8 @@
 //! The dEKF's speed (`bench --what dekf,dekf-training`) against the
-//! targets of the dEKF issue: one online step (derivative filter included) at
-//! most 20 us on one core (the thesis ran at 119 Hz), and training on a
-//! thesis-sized set (50 sessions of 60 s at 30 Hz, 25 epochs) at most 180 s
-//! on 2 cores (the thesis: 22 min 55 s per object).
+//! targets of the speed issue (29): one online step (derivative filter
+//! included) at most 8 us on one core (the thesis ran at 119 Hz), and
+//! training on a thesis-sized set (50 sessions of 60 s at 30 Hz, 25
+//! epochs) at most 180 s on 2 cores (the thesis: 22 min 55 s per object).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -22,8 +22,8 @@ use crate::rig::TrialSpec;
 use crate::rig_config::RigConfig;
 use crate::trial::{run_sim_trial, session_file_name};
 
-/// Target time of one online step (s).
-const STEP_TARGET_S: f64 = 20e-6;
+/// Target time of one online step (s): issue 29's 8 us.
+const STEP_TARGET_S: f64 = 8e-6;
 /// Target time of a thesis-sized training (s).
 const TRAINING_TARGET_S: f64 = 180.0;
 
@@ -52,29 +52,40 @@ pub fn step(runs: usize) -> Result<Value> {
             (0..channels.len()).map(|c| 40.0 * (t + c as f64).sin() + 3.0 * (37.0 * t).sin()).collect()
         })
         .collect();
-    let mut per_step = Vec::new();
+    let (mut per_step, mut cpu_per_step) = (Vec::new(), Vec::new());
     let mut checksum = 0.0;
     for _ in 0..runs.max(1) {
         let mut tracker = DekfTracker::new(&model);
-        let started = Instant::now();
+        let (started, cpu_started) = (Instant::now(), thread_cpu_s()?);
         for (k, z) in scans.iter().enumerate() {
             if let Some(o) = tracker.on_scan(k as f64 * 0.01, z) {
                 checksum += o.mean[0];
             }
         }
         per_step.push(started.elapsed().as_secs_f64() / STEPS as f64);
+        cpu_per_step.push((thread_cpu_s()? - cpu_started) / STEPS as f64);
     }
     let m = median(&per_step);
     Ok(json!({
         "what": "one dEKF step with the derivative filter (xy, 6 channels), one core",
         "median_us": m * 1e6,
         "runs_us": per_step.iter().map(|s| s * 1e6).collect::<Vec<_>>(),
+        "cpu_median_us": median(&cpu_per_step) * 1e6,
         "target_us": STEP_TARGET_S * 1e6,
         "rate_hz": 1.0 / m,
         "thesis_rate_hz": 119.0,
         "pass": m <= STEP_TARGET_S,
         "checksum": checksum.is_finite(),
     }))
+}
+
+/// CPU time of the calling thread (s): what a step costs when other
+/// processes share the core (wall time then counts their turns too).
+fn thread_cpu_s() -> Result<f64> {
+    use nix::time::{ClockId, clock_gettime};
+    let t = clock_gettime(ClockId::CLOCK_THREAD_CPUTIME_ID)
+        .map_err(|e| anyhow::anyhow!("cannot read the thread's CPU time: {e}"))?;
+    Ok(t.tv_sec() as f64 + t.tv_nsec() as f64 * 1e-9)
 }
 
 /// Collects `n` simulated 60 s sessions without camera (with the simulator's truth) into `dir`.
@@ -187,8 +198,9 @@ pub fn describe(r: &Value) -> String {
     let pass = if r["pass"].as_bool() == Some(true) { "PASS" } else { "FAIL" };
     if let Some(us) = r["median_us"].as_f64() {
         format!(
-            "{}: median {us:.2} us per step ({:.0} Hz; thesis 119 Hz), target <= {:.0} us: {pass}",
+            "{}: median {us:.2} us per step ({:.2} us of CPU time; {:.0} Hz; thesis 119 Hz), target <= {:.0} us: {pass}",
             r["what"].as_str().unwrap_or(""),
+            r["cpu_median_us"].as_f64().unwrap_or(f64::NAN),
             r["rate_hz"].as_f64().unwrap_or(f64::NAN),
             r["target_us"].as_f64().unwrap_or(f64::NAN)
         )
@@ -212,5 +224,21 @@ pub fn describe(r: &Value) -> String {
             ),
             None => line,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The step's report: issue 29's 8 us target (it printed the dEKF
+    /// issue's 20 us after the target changed) and the step's CPU time,
+    /// which cannot exceed its wall time.
+    #[test]
+    fn the_step_is_reported_against_8_us_with_its_cpu_time() {
+        let r = super::step(1).expect("the step bench runs");
+        assert_eq!(r["target_us"].as_f64(), Some(8.0));
+        let (wall, cpu) = (r["median_us"].as_f64().unwrap(), r["cpu_median_us"].as_f64().unwrap());
+        assert!(cpu > 0.0 && cpu <= wall * 1.01 + 0.1, "CPU {cpu} us, wall {wall} us");
+        let line = super::describe(&r);
+        assert!(line.contains("target <= 8 us") && line.contains("us of CPU time"), "{line}");
     }
 }

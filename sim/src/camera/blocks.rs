@@ -143,8 +143,8 @@ struct Lane {
     fixed: Vec<i16>,
 }
 
-/// Fewest block rows worth a second thread (a thread start costs about as
-/// much as drawing a few rows of blocks).
+/// Fewest block rows worth a second thread (handing a band to it costs
+/// about as much as drawing a few rows of blocks).
 const MIN_ROWS_TWO_THREADS: usize = 8;
 
 /// The block grid of one frame and what is known of each block, shared by
@@ -309,18 +309,45 @@ pub(super) fn draw_plane<P: PlanarPattern + Sync, const C: usize>(
     }
     // Two bands of block rows, each drawn (and blurred) by its own thread
     // into its own rows of the frame; each renders the block row beyond its
-    // edge too, which its blur reads.
-    let split = nby / 2;
+    // edge too, which its blur reads. They split the work, not the rows.
+    let split = balanced_split(&grid);
     let split_y = rect.y0 + split * block_size;
     let bytes = (split_y - target.row0) * target.image_width * C;
     let (top, bottom) = std::mem::take(&mut target.data).split_at_mut(bytes);
     let mut top = Target { data: top, ..*target };
     let mut bottom = Target { data: bottom, row0: split_y, ..*target };
     let (grid, corner_at, resolved) = (&grid, &corner_at, &resolved);
-    std::thread::scope(|s| {
-        s.spawn(move || draw_band::<P, C>(scene, grid, split..nby, corner_at, resolved, lower, &mut bottom));
+    // The second band goes to rayon's pool, whose threads wait between
+    // frames: a frame no longer starts (and ends) a thread.
+    rayon::in_place_scope(|s| {
+        s.spawn(move |_| draw_band::<P, C>(scene, grid, split..nby, corner_at, resolved, lower, &mut bottom));
         draw_band::<P, C>(scene, grid, 0..split, corner_at, resolved, upper, &mut top);
     });
+}
+
+/// The first block row of the second band: where the rows before it hold
+/// half of the blocks drawn per pixel (active blocks, mixed ones counted
+/// twice: they are rendered sample by sample too), at least one row in
+/// each band. The marker's edges make some rows far busier than others, so
+/// half the rows can be well over half the work.
+fn balanced_split(grid: &Grid<'_>) -> usize {
+    let weight = |by: usize| -> usize {
+        (0..grid.nbx)
+            .map(|bx| {
+                let k = by * grid.nbx + bx;
+                usize::from(grid.active[k]) + usize::from(grid.blocks[k] == Block::Mixed)
+            })
+            .sum()
+    };
+    let total: usize = (0..grid.nby).map(weight).sum();
+    let mut before = 0;
+    for by in 0..grid.nby - 1 {
+        before += weight(by);
+        if 2 * before >= total {
+            return (by + 1).max(1);
+        }
+    }
+    grid.nby - 1
 }
 
 /// Renders, blurs and writes the block rows `rows` of `grid`, with `lane`'s buffers.
@@ -519,5 +546,39 @@ fn write_constant<const C: usize>(
     debug_assert_eq!(fixed.len(), row_len);
     for y in block.y0..block.y1 {
         target.write(block.x0, y, C, fixed);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid<'a>(nby: usize, blocks: &'a [Block], active: &'a [bool]) -> Grid<'a> {
+        let nbx = blocks.len() / nby;
+        let rect = PixelRect { x0: 0, y0: 0, x1: 4 * nbx, y1: 4 * nby };
+        Grid { rect, block_size: 4, nbx, nby, blocks, active }
+    }
+
+    /// The split follows the work: with all of it in the first rows the
+    /// second band starts right after them (half the rows would leave the
+    /// first thread all of it); with none, or all in the last row, each
+    /// band still gets a row.
+    #[test]
+    fn the_bands_split_the_blocks_drawn_per_pixel_not_the_rows() {
+        let (nbx, nby) = (5, 10);
+        let mut blocks = vec![Block::Uniform(0); nbx * nby];
+        let mut active = vec![false; nbx * nby];
+        for k in 0..3 * nbx {
+            active[k] = true;
+            blocks[k] = Block::Mixed;
+        }
+        // Rows 0-2 hold all the work: half of it is done after row 1 (of 1.5 rows).
+        assert_eq!(balanced_split(&grid(nby, &blocks, &active)), 2);
+        let idle = vec![false; nbx * nby];
+        let uniform = vec![Block::Uniform(1); nbx * nby];
+        assert_eq!(balanced_split(&grid(nby, &uniform, &idle)), 1);
+        let mut last = idle.clone();
+        last[(nby - 1) * nbx] = true;
+        assert_eq!(balanced_split(&grid(nby, &uniform, &last)), nby - 1);
     }
 }

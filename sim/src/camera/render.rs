@@ -246,7 +246,7 @@ impl SimCameraRenderer {
         let offset = (noise_key % (self.noise_fixed.len() - n + 1) as u64) as usize;
         let noise = &self.noise_fixed[offset..offset + n];
         let mut data = vec![0u8; n];
-        quantise(&self.background_fixed, noise, &mut data);
+        quantise_frame(&self.background_fixed, noise, &mut data, scratch.two_threads);
         let Some(Drawn { plane, pattern, outline }) = drawn else {
             return self.image(data);
         };
@@ -276,6 +276,20 @@ impl SimCameraRenderer {
         let c = &self.config.intrinsics;
         Image { width: c.width, height: c.height, format: self.config.pixel_format, data }
     }
+}
+
+/// [`quantise`] over a whole frame: its second half on a pool thread with
+/// `two_threads` (the same bytes either way: each is its own sum).
+fn quantise_frame(scene_fixed: &[i16], noise_fixed: &[i16], out: &mut [u8], two_threads: bool) {
+    if !two_threads {
+        return quantise(scene_fixed, noise_fixed, out);
+    }
+    let half = out.len() / 2;
+    let (top, bottom) = out.split_at_mut(half);
+    rayon::in_place_scope(|s| {
+        s.spawn(|_| quantise(&scene_fixed[half..], &noise_fixed[half..], bottom));
+        quantise(&scene_fixed[..half], &noise_fixed[..half], top);
+    });
 }
 
 /// Whether this process may run on two cores or more.

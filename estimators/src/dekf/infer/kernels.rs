@@ -13,23 +13,57 @@
 
 /// How a multiply-add is computed: fused (one rounding) where the CPU has
 /// FMA, a product and a sum otherwise (a fused one without hardware
-/// support would be a slow library call).
-pub(super) trait MulAdd {
+/// support would be a slow library call); and how a group of eight values
+/// is tested for zeros.
+pub(super) trait MulAdd: Copy {
     /// `a * b + c`.
     fn mul_add(a: f32, b: f32, c: f32) -> f32;
+
+    /// Bit `k` set where element `k` of any of the groups `xs` is not zero
+    /// (NaN included).
+    #[inline(always)]
+    fn non_zero_mask<const V: usize>(self, xs: [&[f32; 8]; V]) -> u32 {
+        let mut mask = 0u32;
+        for group in xs {
+            for (k, v) in group.iter().enumerate() {
+                mask |= u32::from(*v != 0.0) << k;
+            }
+        }
+        mask
+    }
 }
 
-/// Fused multiply-add (only inside [`Isa::V3`]'s dispatch).
-pub(super) struct Fused;
+/// Fused multiply-add and vector compares (only inside [`Isa::V3`]'s
+/// dispatch, with its token).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(super) struct Fused(pub(super) pulp::x86::V3);
 
+#[cfg(target_arch = "x86_64")]
 impl MulAdd for Fused {
     #[inline(always)]
     fn mul_add(a: f32, b: f32, c: f32) -> f32 {
         a.mul_add(b, c)
     }
+
+    /// One compare and one `movemask` per group (the portable loop compiles
+    /// to an extract per element).
+    #[inline(always)]
+    fn non_zero_mask<const V: usize>(self, xs: [&[f32; 8]; V]) -> u32 {
+        use std::arch::x86_64::{__m256, _CMP_NEQ_UQ};
+        let avx = self.0.avx;
+        let zero = avx._mm256_setzero_ps();
+        let mut any = zero;
+        for group in xs {
+            let v: __m256 = pulp::cast(*group);
+            any = avx._mm256_or_ps(any, avx._mm256_cmp_ps::<_CMP_NEQ_UQ>(v, zero));
+        }
+        avx._mm256_movemask_ps(any) as u32
+    }
 }
 
 /// A product, then a sum.
+#[derive(Clone, Copy)]
 pub(super) struct Separate;
 
 impl MulAdd for Separate {
@@ -64,34 +98,65 @@ impl Isa {
 pub(super) const V3_BLOCK: usize = 64;
 /// Outputs per block with SSE2: 32 floats, 8 of the 16 vector registers.
 pub(super) const PORTABLE_BLOCK: usize = 32;
+/// Outputs per block of the product with tangents with AVX2: three sums of
+/// 32 floats, 12 of the 16 vector registers.
+pub(super) const V3_TANGENT_BLOCK: usize = 32;
+/// Outputs per block of the product with tangents with SSE2: three sums of
+/// 16 floats, 12 of the 16 vector registers.
+pub(super) const PORTABLE_TANGENT_BLOCK: usize = 16;
+
+/// For every mask of eight bits, the places of its set bits in order, one
+/// byte each from the lowest (the bytes past its count are zero).
+const SET_BITS: [u64; 256] = {
+    let mut table = [0u64; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let (mut k, mut n, mut packed) = (0, 0, 0u64);
+        while k < 8 {
+            if mask & (1 << k) != 0 {
+                packed |= (k as u64) << (8 * n);
+                n += 1;
+            }
+            k += 1;
+        }
+        table[mask] = packed;
+        mask += 1;
+    }
+    table
+};
 
 /// The indices of the non-zero elements of `x`, in order, in `nz` (at least
-/// as long as `x`); returns how many. Branch-free: in each group of eight,
-/// every element's index is written where it would go were it non-zero
-/// (after the non-zero ones before it), so that a zero one's is
-/// overwritten by the next non-zero one's or left past the end; the places
-/// do not depend on each other, only on the group's mask.
+/// as long as `x`); returns how many.
+#[cfg(test)]
+fn non_zero<M: MulAdd>(m: M, x: &[f32], nz: &mut [u32]) -> usize {
+    non_zero_of_any(m, [x], nz)
+}
+
+/// The indices where any of the equally long vectors `xs` is non-zero, in
+/// order, in `nz` (at least as long as them); returns how many.
+/// Branch-free: each group of eight writes the eight places of its mask's
+/// [`SET_BITS`] entry after the indices before it, so that the places past
+/// its count are overwritten by the next group's or left past the end.
 #[inline(always)]
-fn non_zero(x: &[f32], nz: &mut [u32]) -> usize {
-    let nz = &mut nz[..x.len()];
+fn non_zero_of_any<M: MulAdd, const V: usize>(m: M, xs: [&[f32]; V], nz: &mut [u32]) -> usize {
+    let len = xs[0].len();
+    let nz = &mut nz[..len];
     let mut n = 0;
-    let groups = x.chunks_exact(8);
-    let tail = groups.remainder();
-    for (g, group) in groups.enumerate() {
-        let mut mask = 0u32;
-        for (k, v) in group.iter().enumerate() {
-            mask |= u32::from(*v != 0.0) << k;
-        }
-        for k in 0..8 {
-            let place = n + (mask & ((1 << k) - 1)).count_ones() as usize;
-            nz[place] = (g * 8 + k) as u32;
+    let whole = len / 8 * 8;
+    for g in 0..len / 8 {
+        let groups = xs.map(|x| -> &[f32; 8] { x[g * 8..g * 8 + 8].try_into().expect("a group of eight") });
+        let mask = m.non_zero_mask(groups);
+        let places = SET_BITS[mask as usize];
+        // n <= 8 g, so the eight places are inside the list.
+        let out: &mut [u32; 8] = (&mut nz[n..n + 8]).try_into().expect("eight places");
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = (g * 8) as u32 + ((places >> (8 * k)) & 0xff) as u32;
         }
         n += mask.count_ones() as usize;
     }
-    let start = x.len() - tail.len();
-    for (i, v) in tail.iter().enumerate() {
-        nz[n] = (start + i) as u32;
-        n += usize::from(*v != 0.0);
+    for i in whole..len {
+        nz[n] = i as u32;
+        n += usize::from(xs.iter().any(|x| x[i] != 0.0));
     }
     n
 }
@@ -103,6 +168,7 @@ fn non_zero(x: &[f32], nz: &mut [u32]) -> usize {
 /// least `x.len()` long.
 #[inline(always)]
 pub(super) fn mat_vec<M: MulAdd, const B: usize>(
+    isa: M,
     m: &[f32],
     init: Option<&[f32]>,
     x: &[f32],
@@ -111,7 +177,7 @@ pub(super) fn mat_vec<M: MulAdd, const B: usize>(
 ) {
     let n = y.len();
     debug_assert_eq!(m.len(), n * x.len());
-    let count = non_zero(x, nz);
+    let count = non_zero_of_any(isa, [x], nz);
     let nz = &nz[..count];
     let mut o = 0;
     while o + B <= n {
@@ -141,6 +207,64 @@ pub(super) fn mat_vec<M: MulAdd, const B: usize>(
             let xi = x[i];
             for (yo, w) in y.iter_mut().zip(&m[i * n + o..(i + 1) * n]) {
                 *yo = M::mul_add(*w, xi, *yo);
+            }
+        }
+    }
+}
+
+/// `y = b + M x` and the tangents `t_y = M t_x` of the two tangents of `x`
+/// (the derivatives of `x` with respect to two inputs), for the matrix `m`
+/// stored as `x.len()` contiguous columns of `y.len()` elements: forward-mode
+/// differentiation, each weight read once for the three products. An input
+/// is skipped only when its value and both tangents are zero (after a ReLU,
+/// the inputs it zeroed), so `y` is the sum [`mat_vec`] computes, term for
+/// term, in the same order. `nz` is scratch, at least `x.len()` long.
+#[inline(always)]
+pub(super) fn mat_vec_tangents<M: MulAdd, const B: usize>(
+    isa: M,
+    m: &[f32],
+    bias: &[f32],
+    [x, t0, t1]: [&[f32]; 3],
+    [y, u0, u1]: [&mut [f32]; 3],
+    nz: &mut [u32],
+) {
+    let n = y.len();
+    debug_assert_eq!(m.len(), n * x.len());
+    debug_assert!(t0.len() == x.len() && t1.len() == x.len());
+    debug_assert!(u0.len() == n && u1.len() == n);
+    let count = non_zero_of_any(isa, [x, t0, t1], nz);
+    let nz = &nz[..count];
+    let mut o = 0;
+    while o + B <= n {
+        let mut acc: [f32; B] = bias[o..o + B].try_into().expect("a whole block");
+        let (mut acc0, mut acc1) = ([0.0f32; B], [0.0f32; B]);
+        for &i in nz {
+            let i = i as usize;
+            let (xi, a, b) = (x[i], t0[i], t1[i]);
+            let c: &[f32; B] = m[i * n + o..i * n + o + B].try_into().expect("a whole block");
+            for k in 0..B {
+                acc[k] = M::mul_add(c[k], xi, acc[k]);
+                acc0[k] = M::mul_add(c[k], a, acc0[k]);
+                acc1[k] = M::mul_add(c[k], b, acc1[k]);
+            }
+        }
+        y[o..o + B].copy_from_slice(&acc);
+        u0[o..o + B].copy_from_slice(&acc0);
+        u1[o..o + B].copy_from_slice(&acc1);
+        o += B;
+    }
+    if o < n {
+        let (y, u0, u1) = (&mut y[o..], &mut u0[o..], &mut u1[o..]);
+        y.copy_from_slice(&bias[o..]);
+        u0.fill(0.0);
+        u1.fill(0.0);
+        for &i in nz {
+            let i = i as usize;
+            let (xi, a, b) = (x[i], t0[i], t1[i]);
+            for (k, w) in m[i * n + o..(i + 1) * n].iter().enumerate() {
+                y[k] = M::mul_add(*w, xi, y[k]);
+                u0[k] = M::mul_add(*w, a, u0[k]);
+                u1[k] = M::mul_add(*w, b, u1[k]);
             }
         }
     }
@@ -191,8 +315,12 @@ mod tests {
                 let mut got = vec![f32::NAN; outputs];
                 let mut got_fused = vec![f32::NAN; outputs];
                 let init = bias.then_some(&b[..]);
-                mat_vec::<Separate, PORTABLE_BLOCK>(&m, init, &x, &mut got, &mut nz);
-                mat_vec::<Fused, V3_BLOCK>(&m, init, &x, &mut got_fused, &mut nz);
+                mat_vec::<_, PORTABLE_BLOCK>(Separate, &m, init, &x, &mut got, &mut nz);
+                got_fused.copy_from_slice(&got);
+                #[cfg(target_arch = "x86_64")]
+                if let Some(simd) = pulp::x86::V3::try_new() {
+                    mat_vec::<_, V3_BLOCK>(Fused(simd), &m, init, &x, &mut got_fused, &mut nz);
+                }
                 for o in 0..outputs {
                     let w = want[o] - if bias { 0.0 } else { f64::from(b[o]) };
                     for g in [got[o], got_fused[o]] {
@@ -235,8 +363,99 @@ mod tests {
                     .collect();
                 let want: Vec<u32> = (0..len as u32).filter(|&i| x[i as usize] != 0.0).collect();
                 let mut nz = vec![u32::MAX; len];
-                let n = non_zero(&x, &mut nz);
+                let n = non_zero(Separate, &x, &mut nz);
                 assert_eq!(&nz[..n], &want[..], "length {len}, pattern {pattern}");
+                #[cfg(target_arch = "x86_64")]
+                if let Some(simd) = pulp::x86::V3::try_new() {
+                    let mut nz = vec![u32::MAX; len];
+                    let n = non_zero(Fused(simd), &x, &mut nz);
+                    assert_eq!(&nz[..n], &want[..], "AVX2, length {len}, pattern {pattern}");
+                }
+            }
+        }
+    }
+
+    /// The list over several vectors is where any of them is non-zero,
+    /// -0.0 counting as zero and NaN as non-zero, for the portable and the
+    /// vector mask; catches a mask of one vector only, or a compare that
+    /// drops NaN (which must propagate, not vanish).
+    #[test]
+    fn the_list_of_several_vectors_is_the_union_of_their_non_zeros() {
+        let len = 27;
+        let x: Vec<f32> = (0..len).map(|i| if i % 4 == 0 { 1.5 } else { -0.0 }).collect();
+        let t0: Vec<f32> = (0..len).map(|i| if i % 5 == 1 { -2.0 } else { 0.0 }).collect();
+        let t1: Vec<f32> = (0..len).map(|i| if i == 10 || i == 26 { f32::NAN } else { 0.0 }).collect();
+        let want: Vec<u32> = (0..len as u32)
+            .filter(|&i| {
+                let i = i as usize;
+                i.is_multiple_of(4) || i % 5 == 1 || i == 10 || i == 26
+            })
+            .collect();
+        let mut nz = vec![u32::MAX; len];
+        let n = non_zero_of_any(Separate, [&x, &t0, &t1], &mut nz);
+        assert_eq!(&nz[..n], &want[..]);
+        #[cfg(target_arch = "x86_64")]
+        if let Some(simd) = pulp::x86::V3::try_new() {
+            let mut nz = vec![u32::MAX; len];
+            let n = non_zero_of_any(Fused(simd), [&x, &t0, &t1], &mut nz);
+            assert_eq!(&nz[..n], &want[..], "AVX2");
+        }
+    }
+
+    /// The product with tangents: its value is [`mat_vec`]'s bit for bit
+    /// (the same terms in the same order), its tangents the plain sums, for
+    /// whole blocks and a tail, with an input that is zero while its
+    /// tangent is not (a tanh at 0: skipping it would lose the tangent).
+    #[test]
+    fn the_product_with_tangents_is_the_product_of_each_vector() {
+        for (outputs, inputs) in [(64, 64), (70, 5), (12, 12), (40, 2), (1, 3)] {
+            let m: Vec<f32> = (0..outputs * inputs).map(|k| ((k * 37 % 101) as f32 - 50.0) / 25.0).collect();
+            let b: Vec<f32> = (0..outputs).map(|k| k as f32 * 0.1 - 1.0).collect();
+            let x: Vec<f32> =
+                (0..inputs).map(|i| if i % 3 == 1 { 0.0 } else { i as f32 * 0.3 - 0.7 }).collect();
+            let t0: Vec<f32> =
+                (0..inputs).map(|i| if i % 2 == 0 { 0.0 } else { 1.0 - i as f32 * 0.1 }).collect();
+            let t1: Vec<f32> =
+                (0..inputs).map(|i| if i % 3 == 2 { 0.0 } else { 0.5 + i as f32 * 0.2 }).collect();
+            let zeros = vec![0.0f32; outputs];
+            let want = [reference(&m, &b, &x), reference(&m, &zeros, &t0), reference(&m, &zeros, &t1)];
+            let mut nz = vec![0u32; inputs];
+            let check = |name: &str, got: [Vec<f32>; 3], value: Vec<f32>| {
+                assert_eq!(got[0], value, "{name} {outputs}x{inputs}: the value differs from mat_vec's");
+                for (w, g) in want.iter().zip(&got) {
+                    for o in 0..outputs {
+                        assert!((f64::from(g[o]) - w[o]).abs() < 1e-4 * (1.0 + w[o].abs()), "{name} {o}");
+                    }
+                }
+            };
+            let mut value = vec![f32::NAN; outputs];
+            let mut got = [vec![f32::NAN; outputs], vec![f32::NAN; outputs], vec![f32::NAN; outputs]];
+            mat_vec::<_, PORTABLE_BLOCK>(Separate, &m, Some(&b), &x, &mut value, &mut nz);
+            let [g0, g1, g2] = &mut got;
+            mat_vec_tangents::<_, PORTABLE_TANGENT_BLOCK>(
+                Separate,
+                &m,
+                &b,
+                [&x, &t0, &t1],
+                [g0, g1, g2],
+                &mut nz,
+            );
+            check("portable", got, value);
+            #[cfg(target_arch = "x86_64")]
+            if let Some(simd) = pulp::x86::V3::try_new() {
+                let mut value = vec![f32::NAN; outputs];
+                let mut got = [vec![f32::NAN; outputs], vec![f32::NAN; outputs], vec![f32::NAN; outputs]];
+                mat_vec::<_, V3_BLOCK>(Fused(simd), &m, Some(&b), &x, &mut value, &mut nz);
+                let [g0, g1, g2] = &mut got;
+                mat_vec_tangents::<_, V3_TANGENT_BLOCK>(
+                    Fused(simd),
+                    &m,
+                    &b,
+                    [&x, &t0, &t1],
+                    [g0, g1, g2],
+                    &mut nz,
+                );
+                check("AVX2", got, value);
             }
         }
     }
@@ -246,7 +465,11 @@ mod tests {
         let a: Vec<f32> = (0..13).map(|i| i as f32 * 0.5 - 2.0).collect();
         let b: Vec<f32> = (0..13).map(|i| 1.0 + i as f32).collect();
         let naive: f32 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
-        for d in [dot::<Separate>(&a, &b), dot::<Fused>(&a, &b)] {
+        #[cfg(target_arch = "x86_64")]
+        let fused = dot::<Fused>(&a, &b);
+        #[cfg(not(target_arch = "x86_64"))]
+        let fused = dot::<Separate>(&a, &b);
+        for d in [dot::<Separate>(&a, &b), fused] {
             assert!((d - naive).abs() < 1e-4, "{d} vs {naive}");
         }
     }
