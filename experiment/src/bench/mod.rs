@@ -5,6 +5,7 @@
 
 pub mod dekf;
 pub mod live;
+pub mod training;
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
