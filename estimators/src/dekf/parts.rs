@@ -13,10 +13,10 @@ use super::model::DekfModel;
 
 /// Windows per part of a batch's gradient (see [`super::TrainConfig::part_windows`]).
 ///
-/// Measured with `slidetrack bench --what dekf-training` (docs/dekf.md,
-/// "Training on many cores"): parts of 2 windows cost about as much on
-/// one thread as the earlier shards of 16 and split the thesis's batch of
-/// 32 into 16 parts.
+/// 2 splits the thesis's batch of 32 into 16 parts (16 threads busy)
+/// while keeping two windows per matrix product. Not yet measured against
+/// 1, 4 and 16 (the earlier shards): compare them with
+/// `slidetrack bench --what dekf-training --part-windows 2,1,4,16`.
 pub const DEFAULT_PART_WINDOWS: usize = 2;
 
 /// Adds `b` into `a`: the squared errors and state counts, and the
