@@ -14,8 +14,9 @@ use super::model::DekfModel;
 /// Windows per part of a batch's gradient (see [`super::TrainConfig::part_windows`]).
 ///
 /// 2 splits the thesis's batch of 32 into 16 parts (16 threads busy)
-/// while keeping two windows per matrix product. Not yet measured against
-/// 1, 4 and 16 (the earlier shards): compare them with
+/// while keeping two windows per matrix product. Measured on a loaded
+/// 2-core machine (docs/dekf.md) it costs about 2x the earlier shards of
+/// 16 on one thread; compare with
 /// `slidetrack bench --what dekf-training --part-windows 2,1,4,16`.
 pub const DEFAULT_PART_WINDOWS: usize = 2;
 
