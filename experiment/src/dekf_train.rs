@@ -6,8 +6,8 @@ use anyhow::{Context, Result, bail};
 use rand::SeedableRng;
 use serde_json::json;
 use slidetrack_estimators::dekf::{
-    Architecture, Batching, DekfModel, EpochReport, Measurement, ModelMeta, Progress, Selection, Sequence,
-    Stage, StateKind, TrainConfig, train_with_selection,
+    Architecture, Batching, DEFAULT_PART_WINDOWS, DekfModel, EpochReport, Measurement, ModelMeta, Progress,
+    Selection, Sequence, Stage, StateKind, TrainConfig, train_with_selection,
 };
 use slidetrack_estimators::derivative::{DEFAULT_OUTLIER_GATE_SIGMA, DerivativeFilterConfig};
 
@@ -16,7 +16,9 @@ use crate::dekf_eval::score_session;
 
 /// The model options a training takes, for its callers to name.
 pub mod model_options {
-    pub use slidetrack_estimators::dekf::{Activation, Architecture, Batching, Measurement, StateKind};
+    pub use slidetrack_estimators::dekf::{
+        Activation, Architecture, Batching, DEFAULT_PART_WINDOWS, Measurement, StateKind,
+    };
     pub use slidetrack_estimators::derivative::DEFAULT_OUTLIER_GATE_SIGMA;
 }
 use crate::dekf_run::{DEFAULT_RATE_TOLERANCE, Inputs, RATE_TOLERANCE_KEY, inputs, normalisation, sequence};
@@ -62,8 +64,12 @@ pub struct TrainSpec {
     /// Keep the epoch whose filter tracks whole training sessions best
     /// (second half of the schedule); otherwise the last epoch.
     pub select_epoch: bool,
-    /// Worker threads (0: all cores).
+    /// Worker threads (0: all cores). The model does not depend on them.
     pub threads: usize,
+    /// Windows per part of a batch's gradient: a batch keeps up to
+    /// `batch / part_windows` threads busy; the model depends on it by
+    /// float rounding (it is written to the model's training config).
+    pub part_windows: usize,
     /// The truth trained against.
     pub truth: TruthSource,
     /// Largest relative difference of a session's tactile rate from the
@@ -101,6 +107,7 @@ impl Default for TrainSpec {
             normalise_inputs: true,
             select_epoch: true,
             threads: 0,
+            part_windows: DEFAULT_PART_WINDOWS,
             truth: TruthSource::GroundTruth,
             rate_tolerance: DEFAULT_RATE_TOLERANCE,
             outlier_gate_sigma: DEFAULT_OUTLIER_GATE_SIGMA,
@@ -255,6 +262,9 @@ pub fn fit_sessions(
     if let Some(problem) = spec.architecture.problem() {
         bail!("invalid network architecture: {problem}");
     }
+    if spec.part_windows == 0 {
+        bail!("the windows per part of a batch's gradient (--part-windows) must be at least 1");
+    }
     if !(spec.rate_tolerance.is_finite() && spec.rate_tolerance >= 0.0) {
         bail!("the rate tolerance must be a non-negative fraction, got {}", spec.rate_tolerance);
     }
@@ -266,6 +276,7 @@ pub fn fit_sessions(
         clip_norm: spec.clip_norm,
         seed: spec.seed,
         threads: spec.threads,
+        part_windows: spec.part_windows,
         position_shift_cm: spec.position_shift_cm,
         ..TrainConfig::default()
     };

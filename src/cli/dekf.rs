@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 use slidetrack_experiment::dataset::TruthSource;
 use slidetrack_experiment::dekf_train::model_options::{
-    Activation, Batching, DEFAULT_OUTLIER_GATE_SIGMA, Measurement, StateKind,
+    Activation, Batching, DEFAULT_OUTLIER_GATE_SIGMA, DEFAULT_PART_WINDOWS, Measurement, StateKind,
 };
 use slidetrack_experiment::dekf_train::{DEFAULT_CLIP_NORM, DEFAULT_POSITION_SHIFT_CM};
 use slidetrack_experiment::protocol::Protocol;
@@ -204,9 +204,15 @@ pub struct TrainArgs {
     /// subtracting its mean), as the thesis states no normalisation.
     #[arg(long)]
     pub no_normalise: bool,
-    /// Worker threads (0: all cores).
+    /// Worker threads (0: all cores). The model is the same on any number.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Windows per part of a batch's gradient: a batch keeps up to
+    /// `--batch / --part-windows` threads busy. The parts are summed in a
+    /// fixed order, so the model depends on this (by float rounding) but
+    /// not on `--threads`.
+    #[arg(long, default_value_t = DEFAULT_PART_WINDOWS)]
+    pub part_windows: usize,
     /// Truth to train against: the ArUco ground truth (default, or the
     /// thesis protocol's with `--protocol thesis`) or the simulator's.
     #[arg(long, value_enum)]

@@ -4,6 +4,7 @@
 
 use anyhow::{Context, Result};
 use serde_json::json;
+use slidetrack_experiment::bench::training::{self, TrainingBench};
 use slidetrack_experiment::bench::{self, BenchOptions, CollectMeasurement, dekf};
 use slidetrack_experiment::dataset::SessionData;
 use slidetrack_experiment::dekf_train::TrainSpec;
@@ -44,9 +45,16 @@ fn run_in(args: &BenchArgs, dir: &std::path::Path) -> Result<()> {
         let mut fit = |spec: &TrainSpec, sessions: &[SessionData]| {
             super::train::fit_with_progress(spec, sessions, quiet)
         };
-        let r = dekf::training(dir, args.runs.clamp(1, 3), args.threads, args.sessions, &mut fit)?;
+        let b = TrainingBench {
+            runs: args.runs.clamp(1, 3),
+            threads: args.threads,
+            sessions: args.sessions,
+            batch: args.batch,
+            part_windows: args.part_windows.clone(),
+        };
+        let r = training::training(dir, &b, &mut fit)?;
         if !args.json {
-            println!("{}", dekf::describe(&r));
+            println!("{}", training::describe(&r));
         }
         report.insert("dekf_training".into(), r);
     }

@@ -37,6 +37,7 @@ pub fn spec(args: &TrainArgs) -> Result<TrainSpec> {
         select_epoch: !args.no_select,
         normalise_inputs: !args.no_normalise,
         threads: args.threads,
+        part_windows: args.part_windows,
         truth,
         rate_tolerance: args.rate_tolerance,
         outlier_gate_sigma: args.outlier_gate,

@@ -13,6 +13,7 @@ pub mod mlp;
 mod model;
 pub mod multi;
 pub mod params;
+mod parts;
 mod state;
 mod train;
 
@@ -23,6 +24,7 @@ pub use filter::{DekfOutput, DekfTracker};
 pub use input::{DekfInput, InputStep};
 pub use model::{DekfModel, Measurement, ModelMeta};
 pub use params::{Activation, Architecture};
+pub use parts::DEFAULT_PART_WINDOWS;
 pub use state::StateKind;
 pub use train::{
     Batching, EpochReport, Progress, Selection, Stage, TrainConfig, train, train_with_selection,

@@ -315,26 +315,37 @@ fn training_learns_the_synthetic_slide() {
     assert!(se < 0.25 * base, "velocity error {se} vs zero-velocity baseline {base}");
 }
 
-/// The shards of a batch's gradient do not depend on the thread count, so
-/// neither does the model (before the fix, `--threads 1` summed one shard of
-/// 16 windows and `--threads 2` two of 8, and the models drifted apart).
+/// The parts of a batch's gradient, and the tree their gradients are
+/// summed along, do not depend on the thread count, so neither does the
+/// model file, byte for byte: with parts of one window (7 of them per batch
+/// of 7, an odd count that 2 and 3 threads split unevenly), of the default
+/// size and of 3. Catches any reduction whose order follows the threads or
+/// the scheduling (rayon's `reduce` or `sum` over the parts, sums in the
+/// order the parts finish, shards of `batch / threads` windows).
 #[test]
-fn the_same_seed_gives_the_same_model_on_any_number_of_threads() {
+fn the_same_seed_gives_the_same_model_file_on_any_number_of_threads() {
     let data: Vec<Sequence> = (0..4).map(|s| synthetic(200, s)).collect();
-    let trained = |threads: usize| {
+    let trained = |threads: usize, part_windows: usize| {
         let mut model = DekfModel::new(meta(2), &mut ChaCha8Rng::seed_from_u64(3));
         let cfg = TrainConfig {
             schedule: vec![Stage { length: 4, epochs: 2 }, Stage { length: 8, epochs: 1 }],
-            batch_size: 24,
+            batch_size: 7,
             threads,
+            part_windows,
             ..TrainConfig::default()
         };
         train(&mut model, &data, &cfg, &mut |_| {});
-        model.params
+        file::to_bytes(&model).expect("a model file")
     };
-    let one = trained(1);
-    assert_eq!(one, trained(2), "1 and 2 threads");
-    assert_eq!(one, trained(3), "1 and 3 threads");
+    for part_windows in [1, DEFAULT_PART_WINDOWS, 3] {
+        let one = trained(1, part_windows);
+        for threads in [2, 3] {
+            assert!(
+                one == trained(threads, part_windows),
+                "1 and {threads} threads, parts of {part_windows}"
+            );
+        }
+    }
 }
 
 /// Timing of a thesis-sized training (run in release: `cargo test --release -p

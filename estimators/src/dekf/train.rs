@@ -7,9 +7,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use super::batch::{BatchGrad, Sequence, Window};
-use super::bptt::batch_grad;
+use super::batch::{Sequence, Window};
 use super::model::DekfModel;
+use super::parts::{DEFAULT_PART_WINDOWS, parallel_grad};
 
 /// One stage of the schedule: subsequences of `length` steps for `epochs` epochs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -60,6 +60,12 @@ pub struct TrainConfig {
     /// files: the model does not depend on it.
     #[serde(skip_serializing)]
     pub threads: usize,
+    /// Windows per part of a batch's gradient (at least 1; see
+    /// [`super::parts`]). The parts' gradients are summed along a tree
+    /// fixed by their number, so the model depends on this (by float
+    /// rounding) but not on `threads`; a batch keeps up to
+    /// `batch_size / part_windows` threads busy.
+    pub part_windows: usize,
     /// Half-width of the uniform random shift of each window along the
     /// sliding axis (cm); 0 trains on the recorded positions only.
     pub position_shift_cm: f64,
@@ -76,6 +82,7 @@ impl Default for TrainConfig {
             clip_norm: Some(10.0),
             seed: 1,
             threads: 0,
+            part_windows: DEFAULT_PART_WINDOWS,
             position_shift_cm: 0.0,
         }
     }
@@ -194,50 +201,6 @@ fn epoch_batches(
     }
 }
 
-/// Windows per shard of a batch's gradient. Fixed, so that the shards, and
-/// with them the order in which floating-point sums are taken, are the same
-/// whatever the number of threads: the same seed gives the same model on
-/// any machine. 16 keeps the batched products wide (8 made a thesis-sized
-/// training on two threads slower) and splits the default batch of 32 over
-/// two threads; more threads help only larger batches.
-const SHARD_WINDOWS: usize = 16;
-
-/// Gradient of a batch in shards of [`SHARD_WINDOWS`] windows, computed on
-/// `pool` (rayon's global pool when `None`) and summed in shard order, so
-/// the result depends neither on scheduling nor on the number of threads.
-fn parallel_grad(
-    model: &DekfModel,
-    data: &[Sequence],
-    windows: &[Window],
-    length: usize,
-    pool: Option<&rayon::ThreadPool>,
-) -> BatchGrad {
-    use rayon::prelude::*;
-    let shards = || -> Vec<BatchGrad> {
-        windows.par_chunks(SHARD_WINDOWS).map(|w| batch_grad(model, data, w, length)).collect()
-    };
-    let parts = match pool {
-        Some(pool) => pool.install(shards),
-        None => shards(),
-    };
-    let mut total = BatchGrad {
-        squared_error: 0.0,
-        squared_error_pv: [0.0; 2],
-        states: 0,
-        grad: vec![0.0; model.params.len()],
-    };
-    for p in parts {
-        total.squared_error += p.squared_error;
-        total.squared_error_pv[0] += p.squared_error_pv[0];
-        total.squared_error_pv[1] += p.squared_error_pv[1];
-        total.states += p.states;
-        for (t, g) in total.grad.iter_mut().zip(&p.grad) {
-            *t += g;
-        }
-    }
-    total
-}
-
 /// The windows of one batch: each starts from an initial state drawn around
 /// the truth at its start (eq. 2.148), shifted along the sliding axis by
 /// up to `cfg.position_shift_cm`.
@@ -333,7 +296,7 @@ pub fn train_with_selection(
             let (mut sq, mut states, mut skipped) = ([0.0f64; 2], 0usize, 0usize);
             for (b, chunk) in grouped.iter().enumerate() {
                 let batch = batch_windows(chunk, data, cfg, &p0, &mut rng);
-                let mut g = parallel_grad(model, data, &batch, st.length, pool.as_ref());
+                let mut g = parallel_grad(model, data, &batch, st.length, cfg.part_windows, pool.as_ref());
                 // Loss (2.149): mean over steps, batch and state components.
                 let scale = 1.0 / (st.length * batch.len() * dim) as f64;
                 let norm: f64 =

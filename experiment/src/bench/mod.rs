@@ -6,6 +6,7 @@
 pub mod dekf;
 pub mod live;
 pub mod ros2;
+pub mod training;
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
