@@ -223,10 +223,16 @@ impl FastNet {
     pub fn value(&mut self, input: &[f32]) -> f32 {
         match self.isa {
             #[cfg(target_arch = "x86_64")]
-            Isa::V3(simd) => simd.vectorize(
-                #[inline(always)]
-                || self.forward_pass::<_, V3_BLOCK>(Fused(simd), input),
-            ),
+            Isa::V3(simd) => {
+                let this = self;
+                simd.vectorize(
+                    #[inline(always)]
+                    move || {
+                        let this = this;
+                        this.forward_pass::<_, V3_BLOCK>(Fused(simd), input)
+                    },
+                )
+            }
             Isa::Portable => self.forward_pass::<_, PORTABLE_BLOCK>(Separate, input),
         }
     }
@@ -235,10 +241,16 @@ impl FastNet {
     pub fn value_and_gradient(&mut self, input: [f32; 2]) -> (f32, [f32; 2]) {
         match self.isa {
             #[cfg(target_arch = "x86_64")]
-            Isa::V3(simd) => simd.vectorize(
-                #[inline(always)]
-                || self.tangent_pass::<_, V3_TANGENT_BLOCK>(Fused(simd), input),
-            ),
+            Isa::V3(simd) => {
+                let this = self;
+                simd.vectorize(
+                    #[inline(always)]
+                    move || {
+                        let this = this;
+                        this.tangent_pass::<_, V3_TANGENT_BLOCK>(Fused(simd), input)
+                    },
+                )
+            }
             Isa::Portable => self.tangent_pass::<_, PORTABLE_TANGENT_BLOCK>(Separate, input),
         }
     }
