@@ -220,6 +220,14 @@ impl FastNet {
     }
 
     /// The network's output for `input`.
+    ///
+    /// The closures given to `vectorize` move `self` out of their capture
+    /// (`let this = this`), which makes them `FnOnce` closures whose body is
+    /// their `call_once`. A closure that only borrows is called through a
+    /// compiler-made `FnOnce::call_once` shim that is not `inline(always)`:
+    /// in the dev profile (opt-level 1, many codegen units) the shim stayed
+    /// out of the AVX2+FMA function, so every fused multiply-add became a
+    /// library call (`fmaf`), half of a debug build's training time.
     pub fn value(&mut self, input: &[f32]) -> f32 {
         match self.isa {
             #[cfg(target_arch = "x86_64")]
