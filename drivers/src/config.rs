@@ -4,7 +4,7 @@
 //! [hw]
 //! name = "lab-hand"
 //! [hw.tactile]
-//! kind = "serial"            # or "can", "xela_ws" (see `crate::xela_ws::config`), or "sim"
+//! kind = "serial"            # or "can", "xela_ws" (see `crate::xela_ws::config`), "ros2" (`crate::xela_ros2`), or "sim"
 //! port = "/dev/ttyACM0"      # "emulated": the simulated rig behind a pseudo-terminal
 //! taxels_per_module = 16
 //! # [[hw.tactile.sensors]] tables (see `crate::sensors`) name each module;

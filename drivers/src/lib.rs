@@ -43,6 +43,7 @@ pub mod serial;
 pub mod slcan;
 pub mod tactile;
 pub mod v4l2;
+pub mod xela_ros2;
 pub mod xela_ws;
 
 pub use config::HwRigConfig;

@@ -15,6 +15,7 @@ use crate::can_hand::protocol::HandCanIds;
 use crate::config::error::{HwConfigError, IdCollision};
 use crate::emulated::EMULATED_PORT;
 use crate::serial::config::SerialTactileConfig;
+use crate::xela_ros2::XelaRos2TactileConfig;
 use crate::xela_ws::config::{EMULATED_URL, XelaWsTactileConfig};
 
 /// The fingertip sensors.
@@ -31,6 +32,10 @@ pub enum TactileDevice {
     /// XELA sensors read through XELA's `xela_server` (WebSocket JSON).
     #[serde(rename = "xela_ws")]
     XelaWs(XelaWsTactileConfig),
+    /// XELA sensors read from XELA's ROS 2 server `xela_server_ros2` over
+    /// DDS (its `SensStream` topic); opened by `experiment` through
+    /// `slidetrack_ros2::xela`.
+    Ros2(XelaRos2TactileConfig),
 }
 
 impl TactileDevice {
@@ -41,6 +46,7 @@ impl TactileDevice {
             TactileDevice::Serial(_) => "serial",
             TactileDevice::Can(_) => "can",
             TactileDevice::XelaWs(_) => "xela_ws",
+            TactileDevice::Ros2(_) => "ros2",
         }
     }
 
@@ -55,6 +61,7 @@ impl TactileDevice {
                 None => format!("CAN {}", c.interface),
             },
             TactileDevice::XelaWs(x) => format!("xela_server {}", x.url),
+            TactileDevice::Ros2(r) => format!("xela_server_ros2 topic {}", r.topic),
         }
     }
 
@@ -62,7 +69,10 @@ impl TactileDevice {
     pub fn is_simulated(&self) -> bool {
         match self {
             TactileDevice::Sim => true,
-            TactileDevice::Serial(_) | TactileDevice::Can(_) | TactileDevice::XelaWs(_) => false,
+            TactileDevice::Serial(_)
+            | TactileDevice::Can(_)
+            | TactileDevice::XelaWs(_)
+            | TactileDevice::Ros2(_) => false,
         }
     }
 
@@ -75,6 +85,7 @@ impl TactileDevice {
             TactileDevice::Serial(s) => s.port == EMULATED_PORT,
             TactileDevice::Can(c) => c.slcan.as_ref().is_some_and(|s| s.port == EMULATED_PORT),
             TactileDevice::XelaWs(x) => x.url == EMULATED_URL,
+            TactileDevice::Ros2(_) => false,
         }
     }
 
@@ -95,6 +106,7 @@ impl TactileDevice {
             TactileDevice::Serial(s) => s.rate_hz,
             TactileDevice::Can(c) => c.rate_hz,
             TactileDevice::XelaWs(x) => x.rate_hz,
+            TactileDevice::Ros2(r) => r.rate_hz,
         }
     }
 
@@ -105,6 +117,7 @@ impl TactileDevice {
             TactileDevice::Serial(s) => s.validate(),
             TactileDevice::Can(c) => c.validate(),
             TactileDevice::XelaWs(x) => Ok(x.validate()?),
+            TactileDevice::Ros2(r) => Ok(r.validate()?),
         }
     }
 
@@ -113,7 +126,10 @@ impl TactileDevice {
     pub fn can_collision_with_hand(&self, hand_interface: &str, hand: &HandCanIds) -> Option<IdCollision> {
         match self {
             TactileDevice::Can(c) => c.collision_with_hand(hand_interface, hand),
-            TactileDevice::Sim | TactileDevice::Serial(_) | TactileDevice::XelaWs(_) => None,
+            TactileDevice::Sim
+            | TactileDevice::Serial(_)
+            | TactileDevice::XelaWs(_)
+            | TactileDevice::Ros2(_) => None,
         }
     }
 
@@ -130,6 +146,7 @@ impl TactileDevice {
                 None => c.interface = endpoint.into(),
             },
             TactileDevice::XelaWs(x) => x.url = endpoint.into(),
+            TactileDevice::Ros2(r) => r.topic = endpoint.into(),
         }
         device
     }
@@ -138,7 +155,10 @@ impl TactileDevice {
     pub fn as_serial(&self) -> Option<&SerialTactileConfig> {
         match self {
             TactileDevice::Serial(s) => Some(s),
-            TactileDevice::Sim | TactileDevice::Can(_) | TactileDevice::XelaWs(_) => None,
+            TactileDevice::Sim
+            | TactileDevice::Can(_)
+            | TactileDevice::XelaWs(_)
+            | TactileDevice::Ros2(_) => None,
         }
     }
 
@@ -146,7 +166,10 @@ impl TactileDevice {
     pub fn as_can(&self) -> Option<&CanTactileConfig> {
         match self {
             TactileDevice::Can(c) => Some(c),
-            TactileDevice::Sim | TactileDevice::Serial(_) | TactileDevice::XelaWs(_) => None,
+            TactileDevice::Sim
+            | TactileDevice::Serial(_)
+            | TactileDevice::XelaWs(_)
+            | TactileDevice::Ros2(_) => None,
         }
     }
 }
@@ -191,6 +214,11 @@ impl TactileDevice {
                 Box::new(EmulatedXelaWsTactile::start(t, x, sim_rate_hz, clock)?)
             }
             (TactileDevice::XelaWs(x), _) => Box::new(XelaWsTactile::connect(&x.url, x, x.rate_hz, clock)?),
+            (TactileDevice::Ros2(r), _) => {
+                let why =
+                    "internal: a ROS 2 source is opened by experiment (slidetrack_ros2::xela), not here";
+                return Err(DeviceError::new(ErrorKind::Other, r.topic.clone(), why));
+            }
         })
     }
 
@@ -230,6 +258,11 @@ impl TactileDevice {
                 let emulator = XelaWsLiveEmulator::start(source, x)?;
                 Ok(ServedEmulator { endpoint: emulator.url(), emulator: Box::new(emulator) })
             }
+            TactileDevice::Ros2(_) => Err(DeviceError::new(
+                ErrorKind::Other,
+                EMULATED_PORT,
+                "kind = \"ros2\" has no emulator: publish SensStream with any ROS 2 node (see docs/ros2.md)",
+            )),
         }
     }
 }
@@ -245,6 +278,7 @@ mod tests {
             TactileDevice::Serial(SerialTactileConfig::default()),
             TactileDevice::Can(CanTactileConfig::default()),
             TactileDevice::XelaWs(XelaWsTactileConfig::default()),
+            TactileDevice::Ros2(XelaRos2TactileConfig::default()),
         ]
     }
 
@@ -280,6 +314,15 @@ mod tests {
     #[test]
     fn a_device_describes_where_it_is() {
         let described: Vec<String> = every_kind().iter().map(TactileDevice::describe).collect();
-        assert_eq!(described, ["sim", "serial /dev/ttyACM0", "CAN can0", "xela_server ws://127.0.0.1:5000"]);
+        assert_eq!(
+            described,
+            [
+                "sim",
+                "serial /dev/ttyACM0",
+                "CAN can0",
+                "xela_server ws://127.0.0.1:5000",
+                "xela_server_ros2 topic /xServTopic"
+            ]
+        );
     }
 }

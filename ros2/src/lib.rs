@@ -16,6 +16,7 @@ mod payload;
 mod publisher;
 pub mod qos;
 mod subscriber;
+pub mod xela;
 
 pub use domain::{MAX_DOMAIN, domain_id};
 pub use error::Ros2Error;

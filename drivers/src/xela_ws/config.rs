@@ -271,6 +271,12 @@ pub enum XelaConfigError {
         /// The sensor.
         name: String,
     },
+    /// A ROS 2 topic name that is not absolute (`kind = "ros2"`).
+    #[error("hw.tactile.topic = {topic:?} is not an absolute ROS 2 topic name (like \"/xServTopic\")")]
+    Topic {
+        /// The topic.
+        topic: String,
+    },
     /// Sensors or finger readings that do not describe scans.
     #[error(transparent)]
     Sensors(#[from] SensorConfigError),

@@ -16,7 +16,7 @@ use slidetrack_core::{
 use slidetrack_drivers::V4l2Camera;
 use slidetrack_drivers::can_hand::backend::CanHand;
 use slidetrack_drivers::config::{
-    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, RobotiqConfig, V4l2CameraConfig,
+    CameraDevice, EMULATED_PORT, HandDevice, HwRigConfig, RobotiqConfig, TactileDevice, V4l2CameraConfig,
 };
 use slidetrack_drivers::robotiq::backend::{
     EmulatedRobotiqGripper, EmulatedRobotiqMonitor, RobotiqGripper, RobotiqMonitor,
@@ -24,6 +24,7 @@ use slidetrack_drivers::robotiq::backend::{
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, SimHandMonitor};
 
+use super::ros2_tactile::open_ros2_tactile;
 use super::trial::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
 use crate::v4l2_intrinsics::v4l2_intrinsics;
@@ -125,7 +126,10 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
     let truth =
         sim_truth.filter(|_| hw.tactile.feels_simulated_world()).map(|t| Box::new(t) as Box<dyn TruthSource>);
     let simulated = sim_tactile.map(|t| Box::new(t) as Box<dyn TactileSource>);
-    let tactile = hw.tactile.open(simulated, sim_rate, Arc::clone(&clock))?;
+    let tactile = match &hw.tactile {
+        TactileDevice::Ros2(r) => open_ros2_tactile(r, Arc::clone(&clock))?,
+        device => device.open(simulated, sim_rate, Arc::clone(&clock))?,
+    };
     if world.is_some() && !hw.tactile.feels_simulated_world() {
         tracing::warn!("the simulated hand or camera does not feel the real sensors: the loop is open");
     }

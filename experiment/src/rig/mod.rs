@@ -4,6 +4,8 @@
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod hw;
+#[cfg(all(feature = "devices", target_os = "linux"))]
+mod ros2_tactile;
 mod trial;
 
 use std::collections::BTreeMap;

@@ -1,0 +1,213 @@
+//! `[hw.tactile] kind = "ros2"` end to end: an independent DDS
+//! implementation, Eclipse Cyclone DDS through its Python binding
+//! (tests/python/xela_ros2_publisher.py), publishes
+//! `xela_server_ros2/msg/SensStream` on `/xServTopic` as XELA's ROS 2
+//! server does, `slidetrack record` subscribes through RustDDS, and every
+//! recorded taxel count, force and server time equals what Python
+//! published for that message counter, with no message lost in between.
+//!
+//! The DDS setup is that of tests/ros2_live.rs: its own domain id, Cyclone
+//! DDS on loopback by unicast (CYCLONEDDS_URI). Skipped, saying why, when
+//! the project's Python cannot import `cyclonedds`.
+#![cfg(all(feature = "devices", target_os = "linux"))]
+
+mod common;
+
+use std::collections::HashMap;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+use common::{run, tempdir};
+use serde_json::Value;
+use slidetrack_session::{ReadOptions, TactileCalibrated, TactileDeviceTime, TactileRaw, read_channel};
+
+/// Cyclone DDS on loopback, unicast discovery to the same host's ports.
+const CYCLONE_LOOPBACK: &str = "<CycloneDDS><Domain id=\"any\"><General><Interfaces>\
+    <NetworkInterface address=\"127.0.0.1\"/></Interfaces><AllowMulticast>false</AllowMulticast>\
+    </General><Discovery><ParticipantIndex>auto</ParticipantIndex><Peers><Peer address=\"127.0.0.1\"/>\
+    </Peers></Discovery></Domain></CycloneDDS>";
+
+/// The project's Python when it can import `cyclonedds`; `None` (skip) otherwise.
+fn python_with_cyclonedds() -> Option<PathBuf> {
+    let python = std::env::var_os("SLIDETRACK_PYTHON")
+        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/pyenv/bin/python"), PathBuf::from);
+    if !python.exists() {
+        eprintln!("skipped: no {} (run scripts/setup.sh --test)", python.display());
+        return None;
+    }
+    let import = Command::new(&python).args(["-c", "import cyclonedds.domain"]).output();
+    if !import.is_ok_and(|o| o.status.success()) {
+        eprintln!("skipped: {} cannot import cyclonedds (run scripts/setup.sh --test)", python.display());
+        return None;
+    }
+    Some(python)
+}
+
+/// A DDS domain id of this test process alone, apart from tests/ros2_live.rs's.
+fn domain() -> u32 {
+    11 + (std::process::id() % 100) * 2
+}
+
+/// Starts the publisher on `domain` and waits until its writer exists.
+fn publish(python: &Path, domain: u32) -> Child {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/xela_ros2_publisher.py");
+    let mut child = Command::new(python)
+        .arg(script)
+        .arg(domain.to_string())
+        .env("CYCLONEDDS_URI", CYCLONE_LOOPBACK)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python runs");
+    let mut stderr = BufReader::new(child.stderr.take().expect("stderr"));
+    let mut line = String::new();
+    stderr.read_line(&mut line).expect("the publisher's first line");
+    assert_eq!(line.trim(), "ready", "the publisher did not start: {line}");
+    child
+}
+
+/// Stops the publisher; what it published, by message counter, then by sensor_pos.
+fn published(mut child: Child) -> HashMap<u64, HashMap<u64, Value>> {
+    drop(child.stdin.take());
+    let out = child.wait_with_output().expect("the publisher ends");
+    assert!(out.status.success(), "the publisher failed");
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| {
+            let m: Value = serde_json::from_str(l).expect("JSON line");
+            let sensors = m["sensors"].as_array().expect("sensors");
+            let n = sensors[0]["message"].as_u64().expect("message");
+            (n, sensors.iter().map(|s| (s["sensor_pos"].as_u64().expect("pos"), s.clone())).collect())
+        })
+        .collect()
+}
+
+/// sensor_pos 2 first, then 1 (the layout's order is the table's, not the
+/// server's); sensor_pos 3, which the server also sends, is not taken.
+fn rig(domain: u32) -> String {
+    format!(
+        "[hw]
+name = \"xela-ros2\"
+[hw.tactile]
+kind = \"ros2\"
+domain_id = {domain}
+fingers = {{ thumb = {{ sensor = \"a\" }}, index = {{ sensor = \"b\" }}, middle = {{ sensor = \"b\", taxel = 5 }} }}
+[[hw.tactile.sensors]]
+name = \"a\"
+sensor = 2
+finger = \"thumb\"
+model = \"uSPa44\"
+rows = 4
+cols = 4
+[[hw.tactile.sensors]]
+name = \"b\"
+sensor = 1
+finger = \"index\"
+model = \"USPA44\"
+rows = 4
+cols = 4
+[hw.hand]
+kind = \"sim\"
+[hw.camera]
+kind = \"none\"
+"
+    )
+}
+
+fn f64s(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .expect("array")
+        .iter()
+        .flat_map(|t| t.as_array().expect("xyz").iter().map(|x| x.as_f64().expect("number")))
+        .collect()
+}
+
+#[test]
+fn every_taxel_published_by_cyclone_dds_is_recorded() {
+    let Some(python) = python_with_cyclonedds() else { return };
+    let dir = tempdir();
+    let domain = domain();
+    let rig_path = dir.path().join("rig.toml");
+    std::fs::write(&rig_path, rig(domain)).expect("rig TOML");
+    let file = dir.path().join("xela.mcap");
+    let publisher = publish(&python, domain);
+    let out = run(&[
+        "-q",
+        "record",
+        "--config",
+        rig_path.to_str().unwrap(),
+        "--duration",
+        "2",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    let sent = published(publisher);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "record failed: {stderr}");
+
+    let raw = read_channel::<TactileRaw>(&file, ReadOptions::default()).expect("a readable session");
+    assert!(raw.len() >= 50, "{} scans in 2 s at 100 Hz", raw.len());
+    eprintln!(
+        "{} scans recorded, messages {} to {}",
+        raw.len(),
+        raw[0].1.sequence,
+        raw[raw.len() - 1].1.sequence
+    );
+    let sequences: Vec<u64> = raw.iter().map(|(_, m)| m.sequence).collect();
+    assert!(sequences.windows(2).all(|w| w[1] == w[0] + 1), "no message lost or repeated: {sequences:?}");
+    for (_, m) in &raw {
+        let sent = &sent[&m.sequence];
+        let names: Vec<&str> = m.sensors.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["a", "b"]);
+        for (sensor, pos) in m.sensors.iter().zip([2, 1]) {
+            let got: Vec<f64> = sensor.taxels.iter().flat_map(|t| t.to_array()).map(f64::from).collect();
+            assert_eq!(got, f64s(&sent[&pos]["taxels"]), "message {} sensor_pos {pos}", m.sequence);
+        }
+    }
+    let extremes = &raw[0].1.sensors[1].taxels[0].to_array();
+    assert_eq!(extremes, &[0, 65535, 32768], "the full 16-bit range, unsigned");
+
+    let forces = read_channel::<TactileCalibrated>(&file, ReadOptions::default()).expect("forces");
+    assert_eq!(forces.len(), raw.len(), "every sensor taken carries forces");
+    for (_, m) in &forces {
+        for (sensor, pos) in m.sensors.iter().zip([2, 1]) {
+            let got: Vec<f64> = sensor.taxels.iter().flat_map(|t| t.to_array()).collect();
+            assert_eq!(got, f64s(&sent[&m.sequence][&pos]["forces"]), "forces of {}", m.sequence);
+        }
+    }
+    let times = read_channel::<TactileDeviceTime>(&file, ReadOptions::default()).expect("device times");
+    for (_, t) in &times {
+        assert_eq!(t.device_time_s, sent[&t.sequence][&2]["time"].as_f64().unwrap());
+    }
+    assert_eq!(times.len(), raw.len());
+}
+
+#[test]
+fn a_sensor_the_server_does_not_send_is_named_in_one_line() {
+    let Some(python) = python_with_cyclonedds() else { return };
+    let dir = tempdir();
+    let domain = domain() + 1;
+    let rig_path = dir.path().join("rig.toml");
+    std::fs::write(&rig_path, rig(domain).replace("sensor = 1\n", "sensor = 9\n")).expect("rig TOML");
+    let file = dir.path().join("xela.mcap");
+    let publisher = publish(&python, domain);
+    let out = run(&[
+        "-q",
+        "record",
+        "--config",
+        rig_path.to_str().unwrap(),
+        "--duration",
+        "2",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    drop(published(publisher));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && !stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains("hw.tactile.sensors[1].sensor = 9 but xela_server_ros2 sends sensor_pos [1, 2, 3]"),
+        "{stderr}"
+    );
+}
