@@ -44,9 +44,9 @@ fn python_with_cyclonedds() -> Option<PathBuf> {
     Some(python)
 }
 
-/// A DDS domain id of this test process alone, apart from tests/ros2_live.rs's.
+/// A DDS domain id of this test process (212-231: above tests/ros2_live.rs's 10-211).
 fn domain() -> u32 {
-    11 + (std::process::id() % 100) * 2
+    212 + (std::process::id() % 10) * 2
 }
 
 /// Starts the publisher on `domain` and waits until its writer exists.
