@@ -211,3 +211,30 @@ fn a_sensor_the_server_does_not_send_is_named_in_one_line() {
         "{stderr}"
     );
 }
+
+/// Needs no Python: with nobody publishing, the first read times out and
+/// the recording stops with one line naming the topic and the wait.
+#[test]
+fn no_publisher_is_a_startup_timeout_naming_the_topic() {
+    let dir = tempdir();
+    let rig_path = dir.path().join("rig.toml");
+    let text = rig(domain() + 1).replace("kind = \"ros2\"\n", "kind = \"ros2\"\nstartup_timeout_ms = 1500\n");
+    std::fs::write(&rig_path, text).expect("rig TOML");
+    let file = dir.path().join("xela.mcap");
+    let out = run(&[
+        "-q",
+        "record",
+        "--config",
+        rig_path.to_str().unwrap(),
+        "--duration",
+        "2",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && !stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains("ROS 2 topic /xServTopic") && stderr.contains("no SensStream within 1500 ms"),
+        "{stderr}"
+    );
+}
