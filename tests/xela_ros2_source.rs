@@ -15,34 +15,13 @@ mod common;
 
 use std::collections::HashMap;
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
+use common::cyclone::{CYCLONE_LOOPBACK, python_with_cyclonedds};
 use common::{run, tempdir};
 use serde_json::Value;
 use slidetrack_session::{ReadOptions, TactileCalibrated, TactileDeviceTime, TactileRaw, read_channel};
-
-/// Cyclone DDS on loopback, unicast discovery to the same host's ports.
-const CYCLONE_LOOPBACK: &str = "<CycloneDDS><Domain id=\"any\"><General><Interfaces>\
-    <NetworkInterface address=\"127.0.0.1\"/></Interfaces><AllowMulticast>false</AllowMulticast>\
-    </General><Discovery><ParticipantIndex>auto</ParticipantIndex><Peers><Peer address=\"127.0.0.1\"/>\
-    </Peers></Discovery></Domain></CycloneDDS>";
-
-/// The project's Python when it can import `cyclonedds`; `None` (skip) otherwise.
-fn python_with_cyclonedds() -> Option<PathBuf> {
-    let python = std::env::var_os("SLIDETRACK_PYTHON")
-        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/pyenv/bin/python"), PathBuf::from);
-    if !python.exists() {
-        eprintln!("skipped: no {} (run scripts/setup.sh --test)", python.display());
-        return None;
-    }
-    let import = Command::new(&python).args(["-c", "import cyclonedds.domain"]).output();
-    if !import.is_ok_and(|o| o.status.success()) {
-        eprintln!("skipped: {} cannot import cyclonedds (run scripts/setup.sh --test)", python.display());
-        return None;
-    }
-    Some(python)
-}
 
 /// A DDS domain id of this test process (212-231: above tests/ros2_live.rs's 10-211).
 fn domain() -> u32 {

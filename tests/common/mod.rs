@@ -6,6 +6,8 @@
 // `allow` of the workspace.
 #![allow(dead_code, reason = "each test binary uses its own part of these helpers")]
 
+pub mod cyclone;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
