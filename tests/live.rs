@@ -93,8 +93,12 @@ fn a_viewer_during_track_gets_every_channel_and_the_recorded_messages() {
         "127.0.0.1:0",
         "--live-image-hz",
         "0",
+        "--live-wait",
+        "60",
     ]);
-    // The client connects while the trial runs, checks against the file once the server closes.
+    // The trial starts once the client has connected: as fast as possible, the simulated trial
+    // is over in about a second, before a Python client started on a loaded machine connects
+    // (the CI of stop 35). The client checks against the file once the server closes.
     let (client, _) = run_client(addr, dir.path(), Some(&out));
     assert!(child.wait().expect("track exits").success());
     let stdout = String::from_utf8_lossy(&client.stdout);
@@ -167,8 +171,10 @@ fn play_delivers_a_session_at_its_recorded_timing() {
     let mut late: Vec<f64> = offsets.iter().map(|o| o - first).collect();
     late.sort_by(f64::total_cmp);
     let (median, p99) = (late[late.len() / 2], late[late.len() * 99 / 100]);
-    // A few ms per message; p99 leaves room for a loaded CI machine.
-    assert!(median < 3.0 && p99 < 25.0, "lateness median {median:.2} ms, p99 {p99:.2} ms");
+    // A few ms per message; both bounds leave room for a loaded CI machine (the median is
+    // 3.0-3.2 ms with four busy loops per core). Sent all at once, the median would be half
+    // the session; played at half the rate, a quarter of it.
+    assert!(median < 5.0 && p99 < 25.0, "lateness median {median:.2} ms, p99 {p99:.2} ms");
 }
 
 #[test]
@@ -185,6 +191,23 @@ fn an_address_that_cannot_serve_is_one_line_before_the_trial() {
         assert!(e.contains(says), "{addr}: {e}");
         assert!(!out.join("box-s1-t000.mcap").exists(), "{addr}: no trial ran");
     }
+    // After the lines saying where it serves and that it waits: one error line.
+    let waited = common::run(&[
+        "collect",
+        "--duration",
+        "1",
+        "--out",
+        s(&out),
+        "--live",
+        "127.0.0.1:0",
+        "--live-wait",
+        "0.2",
+    ]);
+    let e = String::from_utf8_lossy(&waited.stderr);
+    assert_eq!(waited.status.code(), Some(1), "{e}");
+    let last = e.lines().last().unwrap_or_default();
+    assert!(last.starts_with("error: no viewer connected to ws://") && last.contains("--live-wait"), "{e}");
+    assert!(!out.join("box-s1-t000.mcap").exists(), "--live-wait: no trial ran");
     let e = fails(&["play", s(&dir.path().join("missing.mcap")), "--live", "127.0.0.1:0"]);
     assert!(e.contains("missing.mcap"), "{e}");
 }

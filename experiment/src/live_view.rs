@@ -31,6 +31,21 @@ impl LiveView {
         self.server.url()
     }
 
+    /// Waits until a viewer is connected, at most `timeout_s` seconds;
+    /// an error naming the address when none came.
+    pub fn wait_for_viewer(&self, timeout_s: f64) -> Result<()> {
+        if !(timeout_s.is_finite() && timeout_s > 0.0) {
+            bail!("--live-wait must be a positive number of seconds, got {timeout_s}");
+        }
+        if !self.server.wait_for_viewer(std::time::Duration::from_secs_f64(timeout_s)) {
+            bail!(
+                "no viewer connected to {} within {timeout_s} s (--live-wait); nothing was recorded",
+                self.url()
+            );
+        }
+        Ok(())
+    }
+
     /// Where a recorder hands what it writes.
     pub fn tap(&self) -> LiveTap {
         self.server.tap()

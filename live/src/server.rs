@@ -199,6 +199,19 @@ impl LiveServer {
         self.server.client_count()
     }
 
+    /// Waits until at least one viewer is connected, at most `timeout`;
+    /// whether one is.
+    pub fn wait_for_viewer(&self, timeout: Duration) -> bool {
+        let deadline = std::time::Instant::now() + timeout;
+        while self.viewers() == 0 {
+            if std::time::Instant::now() >= deadline {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        true
+    }
+
     /// Publishes what is still queued, stops the server and returns the counts.
     ///
     /// The caller's thread takes over from the background threads (see

@@ -11,13 +11,18 @@ pub struct LiveArgs {
     /// Also publish every recorded channel live, same topics and schemas, to
     /// Foxglove over its WebSocket protocol on ADDR (HOST:PORT; port 0 picks
     /// a free one). The bound address is printed on stderr; the recording
-    /// never waits for a viewer.
+    /// does not wait for a viewer (see --live-wait).
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = DEFAULT_LIVE_ADDR)]
     pub live: Option<String>,
     /// With --live: most camera images per second sent to viewers (0: every
     /// one). Only images are thinned; the session keeps them all.
     #[arg(long, value_name = "HZ", default_value_t = 15.0, requires = "live")]
     pub live_image_hz: f64,
+    /// With --live: start only once a viewer has connected, waiting at most
+    /// SECONDS (60 when no value is given); no viewer by then is an error
+    /// before any device moves. Without it the recording never waits.
+    #[arg(long, value_name = "SECONDS", num_args = 0..=1, default_missing_value = "60", requires = "live")]
+    pub live_wait: Option<f64>,
     /// Also publish the recorded tactile scans, hand state, estimates,
     /// images and /tf as ROS 2 topics over DDS (no ROS installation needed;
     /// see docs/ros2.md). The recording never waits for a subscriber.

@@ -17,6 +17,10 @@ pub fn start(args: &LiveArgs) -> Result<Outlets> {
             "live: Foxglove WebSocket server on {} (Foxglove: Open connection > Foxglove WebSocket)",
             view.url()
         );
+        if let Some(timeout_s) = args.live_wait {
+            eprintln!("live: waiting up to {timeout_s} s for a viewer before the trial starts");
+            view.wait_for_viewer(timeout_s)?;
+        }
         outlets.live = Some(view);
     }
     if args.ros2 {
