@@ -102,9 +102,14 @@ fn assert_same_outputs(expected: &Path, out: &Path) {
 
 /// Writes the executor's settings: quick polling, a short grace for results.
 fn settings(dir: &Path) -> PathBuf {
+    settings_with(dir, "")
+}
+
+/// [`settings`] and the lines `extra`.
+fn settings_with(dir: &Path, extra: &str) -> PathBuf {
     let path = dir.join("slurm.toml");
-    std::fs::write(&path, "poll_s = 0.2\nresult_grace_s = 1.0\nretries = 2\ntime = \"00:10:00\"\n")
-        .expect("toml");
+    let text = format!("poll_s = 0.2\nresult_grace_s = 1.0\nretries = 2\ntime = \"00:10:00\"\n{extra}");
+    std::fs::write(&path, text).expect("toml");
     path
 }
 
@@ -137,6 +142,9 @@ fn slurm_study_equals_the_local_run_and_resumes_from_its_results() {
         assert!(tasks[0].as_str().expect("task id").ends_with(&format!("_{}", j["index"])), "{j}");
         assert!(j["finished_unix_s"].as_f64() >= j["started_unix_s"].as_f64(), "{j}");
         assert_eq!(j["reused"], false);
+        // Its own task or another that took it (stealing), of the same array.
+        let array = tasks[0].as_str().expect("task id").split('_').next().expect("array id");
+        assert!(j["ran_in"].as_str().is_some_and(|t| t.starts_with(&format!("{array}_"))), "{j}");
     }
     let again: Value = serde_json::from_str(&ok(&a)).expect("--json report");
     for j in again["jobs"].as_array().expect("jobs") {
@@ -149,8 +157,9 @@ fn slurm_study_equals_the_local_run_and_resumes_from_its_results() {
     assert_same_as_local(&out);
 }
 
-/// A task cancelled while it runs (`scancel`) is submitted again and the
-/// study completes with the local run's models and tables.
+/// Without stealing (`steal = false`: one job per task), a task cancelled
+/// while it runs (`scancel`) is submitted again and the study completes
+/// with the local run's models and tables.
 #[test]
 fn a_task_cancelled_mid_run_is_retried_and_the_results_are_unchanged() {
     if !slurm() {
@@ -158,7 +167,7 @@ fn a_task_cancelled_mid_run_is_retried_and_the_results_are_unchanged() {
     }
     let dir = tempdir();
     let out = dir.path().join("slurm");
-    let a = slurm_args(&out, &settings(dir.path()));
+    let a = slurm_args(&out, &settings_with(dir.path(), "steal = false\n"));
     let study =
         slidetrack().args(&a).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("study starts");
     let submitted = out.join("work/train/slurm/submitted.json");
@@ -192,6 +201,59 @@ fn a_task_cancelled_mid_run_is_retried_and_the_results_are_unchanged() {
     assert_eq!(tasks[0], cancelled);
     assert_eq!(job["attempts"], 2);
     assert_same_as_local(&out);
+}
+
+/// With stealing (the default), the task running the all-objects model
+/// (the longest training; on a cluster of fewer than 13 cores a task that
+/// took it after its own job) is cancelled while it runs: the job runs
+/// again in another task and the study completes with the local run's
+/// models and tables.
+#[test]
+fn a_task_cancelled_while_running_a_job_leaves_it_to_another_task() {
+    if !slurm() {
+        return;
+    }
+    let dir = tempdir();
+    let out = dir.path().join("slurm");
+    let a = slurm_args(&out, &settings(dir.path()));
+    let study =
+        slidetrack().args(&a).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("study starts");
+    let lock = out.join("work/train/locks/12-all-xy.lock");
+    let started = Instant::now();
+    let cancelled = loop {
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no task ran the all-objects model within 120 s"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+        if let Some(task) = holder(&lock) {
+            let st = std::process::Command::new("scancel").arg(&task).status().expect("scancel runs");
+            assert!(st.success());
+            break task;
+        }
+    };
+    let output = study.wait_with_output().expect("study finishes");
+    assert!(output.status.success(), "study failed:\n{}", String::from_utf8_lossy(&output.stderr));
+    let report: Value = serde_json::from_slice(&output.stdout).expect("--json report");
+    let job = &report["jobs"][12];
+    assert_eq!(job["name"], "all-xy");
+    let ran_in = job["ran_in"].as_str().expect("ran_in");
+    assert_ne!(ran_in, cancelled, "the cancelled task finished the job before it was cancelled: {job}");
+    assert_same_as_local(&out);
+}
+
+/// The Slurm task holding the job lock `path` now (the lock file's first
+/// word), if one does. (Taking the lock to look, for an instant, only
+/// makes a task leave the job to another.)
+fn holder(path: &Path) -> Option<String> {
+    let file = std::fs::File::open(path).ok()?;
+    match file.try_lock() {
+        Err(std::fs::TryLockError::WouldBlock) => {
+            let text = std::fs::read_to_string(path).ok()?;
+            text.split_whitespace().next().filter(|t| t.contains('_')).map(String::from)
+        }
+        _ => None,
+    }
 }
 
 /// The result files of `out`'s training jobs, by name.

@@ -355,6 +355,10 @@ pub enum ExecutorArg {
 /// directory, as a Slurm task runs it.
 #[derive(Debug, Args, Clone)]
 pub struct StudyJobArgs {
+    /// After its own job, run the stage's other jobs that no task has
+    /// taken (see `slurm.toml`'s `steal`).
+    #[arg(long)]
+    pub steal: bool,
     /// The study's work directory.
     pub work_dir: PathBuf,
     /// The job's index (the array task id).

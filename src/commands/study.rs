@@ -93,13 +93,18 @@ pub fn run(args: &StudyArgs, quiet: bool) -> Result<()> {
 
 /// `slidetrack study-job WORK INDEX`: one job of a study's work directory.
 pub fn run_job(args: &StudyJobArgs) -> Result<()> {
-    let result = executor::run_job(&args.work_dir, args.index)?;
-    eprintln!(
-        "job {} done on {} in {:.1} s",
-        result.name,
-        result.host,
-        result.finished_unix_s - result.started_unix_s
-    );
+    let report = executor::run_task(&args.work_dir, args.index, args.steal)?;
+    for result in &report.ran {
+        eprintln!(
+            "job {} done on {} in {:.1} s",
+            result.name,
+            result.host,
+            result.finished_unix_s - result.started_unix_s
+        );
+    }
+    for (name, error) in &report.failed {
+        eprintln!("job {name} (taken from its own task, which runs it again) failed: {error}");
+    }
     Ok(())
 }
 

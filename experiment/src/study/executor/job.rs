@@ -117,6 +117,9 @@ pub struct JobResult {
     pub scores: Vec<ScoreRow>,
     /// Host that ran it.
     pub host: String,
+    /// The Slurm task that ran it (`ARRAYJOB_TASK`); `None` outside Slurm.
+    #[serde(default)]
+    pub slurm_task: Option<String>,
     /// When it started (s since the Unix epoch).
     pub started_unix_s: f64,
     /// When it finished (s since the Unix epoch).

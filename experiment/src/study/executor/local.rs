@@ -50,6 +50,7 @@ pub fn run_local(
                 reused: !pending.contains(&index),
                 attempts: u32::from(pending.contains(&index)),
                 slurm_tasks: Vec::new(),
+                ran_in: result.as_ref().and_then(|r| r.slurm_task.clone()),
                 host: result.as_ref().map_or_else(String::new, |r| r.host.clone()),
                 started_unix_s: result.as_ref().map_or(f64::NAN, |r| r.started_unix_s),
                 finished_unix_s: result.as_ref().map_or(f64::NAN, |r| r.finished_unix_s),

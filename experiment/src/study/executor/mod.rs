@@ -13,7 +13,8 @@
 //! scores). A job is done when its result exists and validates
 //! ([`Plan::done`]); running a study again runs only the others. The Slurm
 //! executor adds `STAGE/slurm/` (array scripts, task logs, the submitted
-//! array jobs in `slurm/submitted.json`).
+//! array jobs in `slurm/submitted.json`) and `STAGE/locks/` (who runs which
+//! job: see `task.rs`).
 
 mod error;
 mod job;
@@ -24,13 +25,15 @@ mod slurm;
 mod slurm_cli;
 mod stages;
 mod stored;
+mod task;
 mod types;
 mod work;
 
 pub use error::ExecutorError;
 pub use job::{Job, JobResult, OutputFile, Work};
 pub use local::run_local;
-pub use plan::{Plan, run_job};
+pub use plan::Plan;
 pub use run::{StudyRun, run_study};
 pub use slurm::run_slurm;
+pub use task::{TaskReport, run_task};
 pub use types::{Executor, JobReport, Progress, SlurmConfig};

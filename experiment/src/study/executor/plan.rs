@@ -1,6 +1,6 @@
 //! The jobs of one stage of a study in its directory of the work directory
 //! (`WORK/collect`, `WORK/label`, `WORK/train`): writing them, reading them
-//! back (a Slurm task), running one ([`Plan::execute`], [`run_job`]) and
+//! back (a Slurm task), running one ([`Plan::execute`]; a Slurm task: `task.rs`) and
 //! telling which are done ([`Plan::done`]).
 
 use std::collections::BTreeMap;
@@ -48,6 +48,14 @@ pub fn host_name() -> String {
     std::fs::read_to_string("/proc/sys/kernel/hostname")
         .map(|h| h.trim().to_string())
         .unwrap_or_else(|_| "unknown".into())
+}
+
+/// This process's Slurm array task (`ARRAYJOB_TASK`), from the environment
+/// Slurm gives a task (sbatch(1), "OUTPUT ENVIRONMENT VARIABLES").
+pub fn slurm_task() -> Option<String> {
+    let job = std::env::var("SLURM_ARRAY_JOB_ID").ok()?;
+    let task = std::env::var("SLURM_ARRAY_TASK_ID").ok()?;
+    Some(format!("{job}_{task}"))
 }
 
 /// Whether `output` is still what its job wrote.
@@ -181,6 +189,7 @@ impl Plan {
             summary: performed.summary,
             scores: performed.scores,
             host: host_name(),
+            slurm_task: slurm_task(),
             started_unix_s,
             finished_unix_s: now_unix_s(),
         };
@@ -196,17 +205,6 @@ impl Plan {
         })?;
         write(&self.result_path(index), format!("{text}\n").as_bytes())
     }
-}
-
-/// Runs job `index` of the plan in `work_dir` (a stage's directory),
-/// loading what it reads from files (what a Slurm task does:
-/// `slidetrack study-job STAGE_DIR INDEX`).
-pub fn run_job(work_dir: &Path, index: usize) -> Result<JobResult, ExecutorError> {
-    let plan = Plan::read(work_dir)?;
-    if index >= plan.jobs.len() {
-        return Err(ExecutorError::NoSuchJob { work_dir: work_dir.into(), index, jobs: plan.jobs.len() });
-    }
-    plan.execute(index, None, &AtomicBool::new(false))
 }
 
 #[cfg(test)]
@@ -263,6 +261,7 @@ mod tests {
             summary: json!({"name": "box-xy"}),
             scores: vec![ScoreRow { object: "box".into(), train: None, test: nan }],
             host: "h".into(),
+            slurm_task: None,
             started_unix_s: 1.0,
             finished_unix_s: 2.0,
         };

@@ -9,13 +9,13 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 use serde::{Deserialize, Serialize};
 
 use super::error::{ExecutorError, io};
 use super::plan::Plan;
-use super::slurm_cli::{TaskId, final_state, is_active, sacct, sbatch, squeue};
+use super::slurm_cli::{TaskId, final_state, is_active, sacct, sbatch, scancel_pending, squeue};
 use super::types::{JobReport, Progress, SlurmConfig};
 use crate::dekf_run::write_atomically;
 
@@ -53,7 +53,14 @@ struct Tracked {
     job_id: u64,
     /// When it was first seen out of the queue without a result.
     gone_since: Option<Instant>,
+    /// When its job's result file was last changed, as last validated
+    /// (a result file that did not validate is read again once it changes).
+    result_checked: Option<SystemTime>,
 }
+
+/// How often the executor looks for new result files between two looks at
+/// the queue: a file's metadata, cheap where `squeue` asks the controller.
+const RESULT_LOOK: Duration = Duration::from_millis(100);
 
 /// Quotes `s` for the shell.
 fn sh_quote(s: &str) -> String {
@@ -99,8 +106,9 @@ pub fn script(
         s += &sbatch_line("sbatch_options entry", o)?;
     }
     s += &format!(
-        "exec {} -q study-job {} \"$SLURM_ARRAY_TASK_ID\"\n",
+        "exec {} -q study-job{} {} \"$SLURM_ARRAY_TASK_ID\"\n",
         sh_quote(&binary.display().to_string()),
+        if config.steal { " --steal" } else { "" },
         sh_quote(&work_dir.display().to_string())
     );
     Ok(s)
@@ -156,7 +164,7 @@ impl Executor<'_> {
             let options = path_options(&self.work_dir, &self.cwd)?;
             let job_id = sbatch(&path, &indices, self.config.max_running, &options)?;
             for &i in &indices {
-                self.tracked.insert(i, Tracked { job_id, gone_since: None });
+                self.tracked.insert(i, Tracked { job_id, gone_since: None, result_checked: None });
                 *self.attempts.entry(i).or_default() += 1;
             }
             self.submitted.arrays.push(Submission { job_id, indices, script: path });
@@ -213,7 +221,7 @@ impl Executor<'_> {
         let queue = self.states(latest.values().copied().collect())?;
         for (&(job_id, index), state) in &queue {
             if is_active(state) && pending.contains(&index) && latest.get(&index) == Some(&job_id) {
-                self.tracked.insert(index, Tracked { job_id, gone_since: None });
+                self.tracked.insert(index, Tracked { job_id, gone_since: None, result_checked: None });
                 self.attempts.insert(index, 1);
             }
         }
@@ -250,6 +258,58 @@ impl Executor<'_> {
         Ok(Look { done, lost, running, pending })
     }
 
+    /// The tracked jobs whose result appeared (or changed) and validates,
+    /// no longer tracked; from the files alone.
+    fn results_in(&mut self) -> Vec<usize> {
+        let mut done = Vec::new();
+        for (&index, t) in &mut self.tracked {
+            let Ok(modified) = std::fs::metadata(self.plan.result_path(index)).and_then(|m| m.modified())
+            else {
+                continue;
+            };
+            if t.result_checked != Some(modified) {
+                t.result_checked = Some(modified);
+                if self.plan.done(index).is_some() {
+                    done.push(index);
+                }
+            }
+        }
+        for i in &done {
+            self.tracked.remove(i);
+        }
+        done
+    }
+
+    /// Submits again the `lost` jobs that have attempts left; the others
+    /// go to `failed`. Returns how many were submitted again.
+    fn retry(
+        &mut self,
+        lost: Vec<(usize, String)>,
+        failed: &mut Vec<String>,
+    ) -> Result<usize, ExecutorError> {
+        let mut again = Vec::new();
+        for (index, state) in lost {
+            if self.attempts.get(&index).copied().unwrap_or(0) <= self.config.retries {
+                again.push(index);
+            } else {
+                failed.push(format!("{} ({state})", self.plan.jobs[index].name));
+            }
+        }
+        if !again.is_empty() {
+            self.submit(&again)?;
+        }
+        Ok(again.len())
+    }
+
+    /// Cancels the tasks of this stage's arrays still queued once every job
+    /// is done: with stealing they would only start to find their jobs done.
+    fn cancel_queued(&self) {
+        let arrays: BTreeSet<u64> = self.submitted.arrays.iter().map(|s| s.job_id).collect();
+        if let Err(e) = scancel_pending(&arrays.into_iter().collect::<Vec<_>>()) {
+            tracing::debug!("study: cancelling the tasks left queued: {e}");
+        }
+    }
+
     fn job_ids(&self) -> Vec<String> {
         let ids: BTreeSet<u64> = self.tracked.values().map(|t| t.job_id).collect();
         ids.iter().map(u64::to_string).collect()
@@ -266,6 +326,7 @@ impl Executor<'_> {
                     reused: !pending_at_start.contains(&index),
                     attempts: self.attempts.get(&index).copied().unwrap_or(0),
                     slurm_tasks: tasks.map(|s| format!("{}_{index}", s.job_id)).collect(),
+                    ran_in: result.as_ref().and_then(|r| r.slurm_task.clone()),
                     host: result.as_ref().map_or_else(String::new, |r| r.host.clone()),
                     started_unix_s: result.as_ref().map_or(f64::NAN, |r| r.started_unix_s),
                     finished_unix_s: result.as_ref().map_or(f64::NAN, |r| r.finished_unix_s),
@@ -317,6 +378,8 @@ pub fn run_slurm(
         ex.submit(&fresh)?;
     }
     let (mut done, mut retried, mut failed) = (plan.jobs.len() - pending_at_start.len(), 0, Vec::new());
+    let mut looked = Instant::now();
+    let (mut running, mut pending) = (0, 0);
     while !ex.tracked.is_empty() {
         if stop.load(Ordering::SeqCst) {
             let left = format!(
@@ -326,20 +389,20 @@ pub fn run_slurm(
             );
             return Err(ExecutorError::Interrupted { left });
         }
-        std::thread::sleep(Duration::from_secs_f64(config.poll_s));
-        let Look { done: finished, lost, running, pending } = ex.poll()?;
-        done += finished.len();
-        let mut again = Vec::new();
-        for (index, state) in lost {
-            if ex.attempts.get(&index).copied().unwrap_or(0) <= config.retries {
-                again.push(index);
-                retried += 1;
-            } else {
-                failed.push(format!("{} ({state})", plan.jobs[index].name));
-            }
-        }
-        if !again.is_empty() {
-            ex.submit(&again)?;
+        let poll = Duration::from_secs_f64(config.poll_s);
+        std::thread::sleep(RESULT_LOOK.min(poll));
+        // Results show on the (shared) file system before the queue knows;
+        // the queue is asked every `poll_s`.
+        let results = ex.results_in().len();
+        done += results;
+        if looked.elapsed() >= poll {
+            looked = Instant::now();
+            let Look { done: finished, lost, running: r, pending: p } = ex.poll()?;
+            (running, pending) = (r, p);
+            done += finished.len();
+            retried += ex.retry(lost, &mut failed)?;
+        } else if results == 0 {
+            continue;
         }
         let slurm_jobs = ex.job_ids();
         progress(&Progress {
@@ -358,6 +421,9 @@ pub fn run_slurm(
             attempts: config.retries + 1,
             logs: ex.dir.join("logs"),
         });
+    }
+    if config.steal && !pending_at_start.is_empty() {
+        ex.cancel_queued();
     }
     Ok(ex.reports(&pending_at_start))
 }
@@ -388,7 +454,7 @@ mod tests {
         assert!(!s.contains("--account") && !s.contains("--mem") && !s.contains("--chdir"), "{s}");
         assert!(
             s.ends_with(
-                "exec '/opt/my bin/slidetrack' -q study-job '/w/it'\\''s here' \"$SLURM_ARRAY_TASK_ID\"\n"
+                "exec '/opt/my bin/slidetrack' -q study-job --steal '/w/it'\\''s here' \"$SLURM_ARRAY_TASK_ID\"\n"
             ),
             "{s}"
         );

@@ -60,6 +60,17 @@ pub fn parse_sbatch(out: &str) -> Option<u64> {
     out.lines().rev().find(|l| !l.trim().is_empty())?.trim().split(';').next()?.parse().ok()
 }
 
+/// Cancels the tasks of `jobs` still pending (`scancel --state=PENDING`):
+/// those already running or ended are left alone.
+pub fn scancel_pending(jobs: &[u64]) -> Result<(), ExecutorError> {
+    if jobs.is_empty() {
+        return Ok(());
+    }
+    let mut args = vec!["--state=PENDING".to_string()];
+    args.extend(jobs.iter().map(u64::to_string));
+    run("scancel", &args).map(|_| ())
+}
+
 /// The tasks of `jobs` the controller still knows, with their state
 /// (`PENDING`, `RUNNING`, `COMPLETING`, `CANCELLED`, ...). Jobs it has
 /// forgotten are left out.

@@ -34,6 +34,11 @@ pub struct SlurmConfig {
     pub result_grace_s: f64,
     /// At most this many tasks of an array at once (`--array=...%N`).
     pub max_running: Option<u32>,
+    /// Whether a task, after its own job, runs the stage's other jobs that
+    /// no task has taken yet (default true): the cores stay busy while the
+    /// cluster is slow to start the next task. See `task.rs`.
+    #[serde(default = "default_steal")]
+    pub steal: bool,
     /// The slidetrack binary the tasks run (default: this one); it must be
     /// reachable at this path on the compute nodes.
     pub binary: Option<PathBuf>,
@@ -41,6 +46,10 @@ pub struct SlurmConfig {
 
 fn default_retries() -> u32 {
     2
+}
+
+fn default_steal() -> bool {
+    true
 }
 
 fn default_poll_s() -> f64 {
@@ -63,6 +72,7 @@ impl Default for SlurmConfig {
             poll_s: default_poll_s(),
             result_grace_s: default_grace_s(),
             max_running: None,
+            steal: default_steal(),
             binary: None,
         }
     }
@@ -131,6 +141,9 @@ pub struct JobReport {
     pub attempts: u32,
     /// The Slurm task ids (`ARRAYJOB_TASK`) of its attempts, in order.
     pub slurm_tasks: Vec<String>,
+    /// The Slurm task that ran it (its own, or another that took it), from
+    /// its result; `None` when it ran here.
+    pub ran_in: Option<String>,
     /// Host that ran it.
     pub host: String,
     /// When it started and finished (s since the Unix epoch).
