@@ -4,7 +4,8 @@
 //! (`slidetrack_msgs::msg::dds_::TactileRaw_`) during a simulated
 //! `track --ros2`, and receives tactile scans, hand states and the dEKF
 //! and marker estimates whose values equal the session's, message for
-//! message (matched by their header stamps, the messages' log times).
+//! message (matched by their header stamps, the messages' log times); the
+//! same for a collected session published by `play --ros2`.
 //!
 //! Each test uses its own DDS domain id; Cyclone DDS talks over loopback
 //! only, by unicast (CYCLONEDDS_URI): multicast on `lo` is off in the
@@ -134,19 +135,51 @@ fn cyclone_dds_receives_the_sessions_values_during_track() {
         s(&session),
     ]);
     let got = received(subscriber);
+    assert_values_are_the_sessions(
+        &session,
+        &got,
+        &["/tactile/raw", "/hand/state", "/estimate/dekf", "/estimate/aruco"],
+    );
+}
 
-    let topics = ["/tactile/raw", "/hand/state", "/estimate/dekf", "/estimate/aruco"];
+/// `play --ros2`: a tracked session published at twice its recorded
+/// speed; the subscriber receives its tactile scans, hand states and dEKF
+/// and marker estimates with the session's values.
+#[test]
+fn cyclone_dds_receives_a_played_sessions_values() {
+    let Some(python) = python_with_cyclonedds() else { return };
+    let dir = tempdir();
+    let (_, model) = trained(dir.path());
+    let session = dir.path().join("tracked.mcap");
+    ok(&["-q", "track", "--model", s(&model), "--duration", "3", "--seed", "8", "--out", s(&session)]);
+    let domain = domain(1);
+    let subscriber = subscribe(&python, domain);
+    let d = domain.to_string();
+    let out = ok(&["play", s(&session), "--ros2", "--ros2-domain", &d, "--rate", "2"]);
+    assert!(out.contains("end reached 1 time(s)"), "{out}");
+    let got = received(subscriber);
+    assert_values_are_the_sessions(
+        &session,
+        &got,
+        &["/tactile/raw", "/hand/state", "/estimate/dekf", "/estimate/aruco"],
+    );
+}
+
+/// Every message in `got` (the subscriber's lines) equals the session's
+/// message of its topic and stamp, and each of `topics` arrived, at least
+/// 1 in 10 of its messages.
+fn assert_values_are_the_sessions(session: &Path, got: &[Value], topics: &[&str]) {
     let mut expected: HashMap<(String, u64), Value> = HashMap::new();
     let mut recorded: HashMap<&str, usize> = HashMap::new();
-    for topic in topics {
-        let messages: Vec<(_, Value)> = read_json(&session, topic, ReadOptions::default()).expect(topic);
+    for &topic in topics {
+        let messages: Vec<(_, Value)> = read_json(session, topic, ReadOptions::default()).expect(topic);
         recorded.insert(topic, messages.len());
         for (t, m) in messages {
             expected.insert((topic.to_string(), t.0), as_ros(topic, &m));
         }
     }
     let mut counts: HashMap<String, usize> = HashMap::new();
-    for m in &got {
+    for m in got {
         let topic = m["topic"].as_str().expect("topic").to_string();
         let stamp = m["stamp_ns"].as_u64().expect("stamp");
         let want = expected.get(&(topic.clone(), stamp));
@@ -165,7 +198,7 @@ fn cyclone_dds_receives_the_sessions_values_during_track() {
     // loaded one (load average 15 on 2 cores) as few as 1 in 6 scans. Each
     // topic must arrive, at least 1 in 10 of its messages, and every one
     // that arrives must be exact.
-    for topic in topics {
+    for &topic in topics {
         let (n, of) = (counts.get(topic).copied().unwrap_or(0), recorded[topic]);
         eprintln!("{topic}: {n} of {of} received");
         assert!(of > 0, "{topic}: nothing recorded");

@@ -37,6 +37,7 @@ pub mod replay;
 pub mod replay_file;
 pub mod rig;
 pub mod rig_config;
+pub mod ros2_play;
 pub mod study;
 pub mod tactile_force;
 pub mod tracked_trial;

@@ -30,6 +30,11 @@ impl Ros2Topics {
         self.publisher.domain()
     }
 
+    /// Where a recorder (or a played session) hands what it writes.
+    pub fn tap(&self) -> LiveTap {
+        self.publisher.tap()
+    }
+
     /// Publishes what is still queued and leaves the domain.
     pub fn finish(self) -> Ros2Stats {
         self.publisher.finish()
@@ -50,6 +55,6 @@ impl Outlets {
     /// publisher's. The command line does not ask for both at once (one tap
     /// per recorder).
     pub fn tap(&self) -> Option<LiveTap> {
-        self.live.as_ref().map(LiveView::tap).or_else(|| self.ros2.as_ref().map(|r| r.publisher.tap()))
+        self.live.as_ref().map(LiveView::tap).or_else(|| self.ros2.as_ref().map(Ros2Topics::tap))
     }
 }

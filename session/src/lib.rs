@@ -48,7 +48,7 @@ pub use ground_truth::{GroundTruthMeasurement, GroundTruthParameters, GroundTrut
 pub use in_hand::{
     GraspStateName, GroundTruthPlanar, GroundTruthPose, PlanarEstimate, PlanarState, SlipEstimate,
 };
-pub use live::{LiveChannel, LiveReceiver, LiveRecord, LiveTap, LiveTapStats, TapClosed};
+pub use live::{LiveChannel, LiveReceiver, LiveRecord, LiveSession, LiveTap, LiveTapStats, TapClosed};
 pub use messages::{
     ChannelMessage, ChannelSpec, FingerSetpoint, GraspControl, GripperCommand, GripperState, HandCommand,
     HandState, ProtocolEvent, RecorderStats, SensorTaxels, SensorValues, SimTruth, TAXEL_LAYOUT_KEY,

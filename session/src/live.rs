@@ -226,8 +226,9 @@ fn stats_of(state: &TapState) -> LiveTapStats {
 /// A writer thread's use of a tap: the tap, its session number, and the
 /// latest message of each channel while nobody is subscribed (moved in, not
 /// copied), forwarded first when someone subscribes: a viewer that comes
-/// late still gets a calibration logged once at the start.
-pub(crate) struct LiveSession {
+/// late still gets a calibration logged once at the start. A session played
+/// from its file feeds a tap through one too (`play --ros2`).
+pub struct LiveSession {
     tap: LiveTap,
     session: u64,
     latest: HashMap<u16, LiveRecord>,
@@ -236,17 +237,20 @@ pub(crate) struct LiveSession {
 
 impl LiveSession {
     /// Numbers the session and announces it.
-    pub(crate) fn start(tap: LiveTap, path: PathBuf) -> LiveSession {
+    pub fn start(tap: LiveTap, path: PathBuf) -> LiveSession {
         let session = tap.next_session();
         tap.control(LiveRecord::SessionStarted { session, path });
         LiveSession { tap, session, latest: HashMap::new(), was_wanted: false }
     }
 
-    pub(crate) fn channel(&self, id: u16, channel: LiveChannel) {
+    /// Announces channel `id` of the session.
+    pub fn channel(&self, id: u16, channel: LiveChannel) {
         self.tap.control(LiveRecord::Channel { session: self.session, id, channel: Arc::new(channel) });
     }
 
-    pub(crate) fn message(
+    /// Hands on a message of channel `id` (log and publish times in ns of
+    /// the session clock); never blocks (see [`LiveTap`]).
+    pub fn message(
         &mut self,
         channel: u16,
         log_time: TimeNs,
@@ -275,7 +279,8 @@ impl LiveSession {
         self.tap.message(record);
     }
 
-    pub(crate) fn finished(&self) {
+    /// Announces the end of the session.
+    pub fn finished(&self) {
         self.tap.control(LiveRecord::SessionFinished { session: self.session });
     }
 }

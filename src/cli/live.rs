@@ -50,4 +50,12 @@ pub struct PlayArgs {
     /// Start playing at once, instead of when the first viewer subscribes.
     #[arg(long)]
     pub no_wait: bool,
+    /// Publish the session as ROS 2 topics over DDS instead of serving
+    /// Foxglove (the topics and types of `--ros2` on a recording run, see
+    /// docs/ros2.md); the topics are announced 1 s before the first message.
+    #[arg(long, conflicts_with = "no_wait")]
+    pub ros2: bool,
+    /// With --ros2: the ROS 2 domain id (default: ROS_DOMAIN_ID, else 0).
+    #[arg(long, value_name = "N", requires = "ros2")]
+    pub ros2_domain: Option<u32>,
 }
