@@ -1,6 +1,6 @@
 //! `export --ros2-bag` end to end: an independent ROS 2 bag reader (the
 //! `rosbags` package, tests/python/check_ros2_bag.py) reads the bags of a
-//! tracked session (dEKF and marker estimates, vision transforms,
+//! tracked session (dEKF and marker estimates, vision poses, velocities and transforms,
 //! images, camera info, hand state) and of a session with 4x4 taxel patches,
 //! and finds the sessions' values; errors are one line naming the file.
 
@@ -80,6 +80,8 @@ fn rosbags_reads_a_tracked_session_with_the_sessions_values() {
         "/camera/image",
         "/camera/calibration",
         "/estimate/transform/maskukf",
+        "/estimate/pose/maskukf",
+        "/estimate/velocity/maskukf",
     ] {
         assert!(count(&summary, topic) > 0, "{topic}: {summary}");
     }

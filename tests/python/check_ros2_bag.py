@@ -142,6 +142,26 @@ def check_tf(m, j, t):
     return None
 
 
+def check_pose(m, j, t):
+    if stamp_ns(m.header) != foxglove_ns(j["timestamp"]) or m.header.frame_id != j["frame_id"]:
+        return "header"
+    p, q = m.pose.position, m.pose.orientation
+    if [p.x, p.y, p.z] != [j["pose"]["position"][k] for k in "xyz"]:
+        return "position"
+    if [q.x, q.y, q.z, q.w] != [j["pose"]["orientation"][k] for k in "xyzw"]:
+        return "orientation"
+    return None
+
+
+def check_twist(m, j, t):
+    if stamp_ns(m.header) != t or m.header.frame_id != j["frame_id"]:
+        return "header"
+    v, w = m.twist.linear, m.twist.angular
+    if [v.x, v.y, v.z] != j["linear_velocity_mps"] or [w.x, w.y, w.z] != j["angular_velocity_radps"]:
+        return "velocities"
+    return None
+
+
 # session schema -> (ROS 2 type, bag topic or None for the session's, check)
 CONVERTED = {
     "slidetrack.TactileRaw": ("slidetrack_msgs/msg/TactileRaw", None, check_tactile),
@@ -151,6 +171,8 @@ CONVERTED = {
     "foxglove.RawImage": ("sensor_msgs/msg/Image", None, check_raw_image),
     "foxglove.CameraCalibration": ("sensor_msgs/msg/CameraInfo", None, check_camera_info),
     "foxglove.FrameTransform": ("tf2_msgs/msg/TFMessage", "/tf", check_tf),
+    "foxglove.PoseInFrame": ("geometry_msgs/msg/PoseStamped", None, check_pose),
+    "slidetrack.VelocityEstimate": ("geometry_msgs/msg/TwistStamped", None, check_twist),
 }
 
 

@@ -9,6 +9,12 @@
 //! | `foxglove.RawImage` | `sensor_msgs/msg/Image` | the image's time and frame |
 //! | `foxglove.CameraCalibration` | `sensor_msgs/msg/CameraInfo` | its time and frame |
 //! | `foxglove.FrameTransform` | `tf2_msgs/msg/TFMessage` (on `/tf`) | its time, parent frame |
+//! | `foxglove.PoseInFrame` (the vision trackers' poses) | `geometry_msgs/msg/PoseStamped` | its time and frame |
+//! | `slidetrack.VelocityEstimate` (their velocities) | `geometry_msgs/msg/TwistStamped` | log time, its frame |
+//!
+//! The vision trackers record no covariance with their poses and
+//! velocities, so these are the plain stamped types, not the
+//! `...WithCovariance...` ones with a made-up covariance.
 //!
 //! Every other schema has no ROS 2 counterpart here and is left out.
 
@@ -19,7 +25,7 @@ use super::cdr::CdrWriter;
 use crate::estimates::SlidingEstimate;
 use crate::messages::{HandState, TactileRaw};
 use crate::vision::{CameraCalibration, CompressedImage, FoxgloveTime};
-use crate::vision_pose::{FrameTransform, RawImage};
+use crate::vision_pose::{FrameTransform, PoseInFrame, RawImage, VelocityEstimate};
 
 /// A converted message.
 #[derive(Clone, Debug, PartialEq)]
@@ -43,6 +49,8 @@ pub fn ros2_type<'a>(schema: &str, topic: &'a str) -> Option<(&'static str, &'a 
         "foxglove.RawImage" => ("sensor_msgs/msg/Image", topic),
         "foxglove.CameraCalibration" => ("sensor_msgs/msg/CameraInfo", topic),
         "foxglove.FrameTransform" => ("tf2_msgs/msg/TFMessage", "/tf"),
+        "foxglove.PoseInFrame" => ("geometry_msgs/msg/PoseStamped", topic),
+        "slidetrack.VelocityEstimate" => ("geometry_msgs/msg/TwistStamped", topic),
         _ => return None,
     })
 }
@@ -85,6 +93,19 @@ pub fn convert(
             w.string(&m.child_frame_id);
             w.f64(m.translation.x).f64(m.translation.y).f64(m.translation.z);
             w.f64(m.rotation.x).f64(m.rotation.y).f64(m.rotation.z).f64(m.rotation.w);
+        }
+        "foxglove.PoseInFrame" => {
+            let m: PoseInFrame = decode(json)?;
+            header(&mut w, m.timestamp, &m.frame_id);
+            let (p, q) = (m.pose.position, m.pose.orientation);
+            w.f64(p.x).f64(p.y).f64(p.z).f64(q.x).f64(q.y).f64(q.z).f64(q.w);
+        }
+        "slidetrack.VelocityEstimate" => {
+            let m: VelocityEstimate = decode(json)?;
+            header(&mut w, stamp_of(log_time), &m.frame_id);
+            let [vx, vy, vz] = m.linear_velocity_mps;
+            let [wx, wy, wz] = m.angular_velocity_radps;
+            w.f64(vx).f64(vy).f64(vz).f64(wx).f64(wy).f64(wz);
         }
         _ => return Ok(None),
     }
@@ -149,8 +170,9 @@ mod tests {
     }
 
     // The expected bytes are what rosbags 0.11.9 (`Typestore.serialize_cdr`,
-    // slidetrack_msgs registered from session/ros2/slidetrack_msgs/msg)
-    // writes for the same values.
+    // slidetrack_msgs registered from session/ros2/slidetrack_msgs/msg;
+    // the standard types from its ROS 2 Humble store) writes for the same
+    // values.
 
     #[test]
     fn an_estimate_is_rosbags_bytes() {
@@ -201,6 +223,28 @@ mod tests {
             "000000000000204000000000000022400000000000002440000000000000264000000000000000000000000000000000",
             "000000000000000000",
         );
+        assert_eq!(m.data, bytes(expected));
+    }
+
+    #[test]
+    fn a_vision_pose_is_rosbags_pose_stamped() {
+        let json = r#"{"timestamp":{"sec":1,"nsec":2},"frame_id":"camera","pose":{
+            "position":{"x":0.1,"y":-0.2,"z":0.5},"orientation":{"x":0.0,"y":0.0,"z":0.6,"w":0.8}}}"#;
+        let m = cdr("foxglove.PoseInFrame", 5, json);
+        assert_eq!((m.ros_type, m.topic.as_str()), ("geometry_msgs/msg/PoseStamped", "/x"));
+        let expected = "0001000001000000020000000700000063616d6572610000000000009a9999999999b93f9a9999999999c9bf\
+                        000000000000e03f00000000000000000000000000000000333333333333e33f9a9999999999e93f";
+        assert_eq!(m.data, bytes(expected));
+    }
+
+    #[test]
+    fn a_vision_velocity_is_rosbags_twist_stamped_at_its_log_time() {
+        let json = r#"{"frame_id":"camera","linear_velocity_mps":[0.01,0.02,-0.03],
+            "angular_velocity_radps":[0.1,0.0,-0.2]}"#;
+        let m = cdr("slidetrack.VelocityEstimate", 5, json);
+        assert_eq!(m.ros_type, "geometry_msgs/msg/TwistStamped");
+        let expected = "0001000000000000050000000700000063616d6572610000000000007b14ae47e17a843f7b14ae47e17a943f\
+                        b81e85eb51b89ebf9a9999999999b93f00000000000000009a9999999999c9bf";
         assert_eq!(m.data, bytes(expected));
     }
 

@@ -37,6 +37,11 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "std_msgs/Header header\nstring child_frame_id\nTransform transform\n",
     ),
     ("tf2_msgs/msg/TFMessage", "geometry_msgs/TransformStamped[] transforms\n"),
+    ("geometry_msgs/msg/Point", "float64 x\nfloat64 y\nfloat64 z\n"),
+    ("geometry_msgs/msg/Pose", "Point position\nQuaternion orientation\n"),
+    ("geometry_msgs/msg/PoseStamped", "std_msgs/Header header\nPose pose\n"),
+    ("geometry_msgs/msg/Twist", "Vector3 linear\nVector3 angular\n"),
+    ("geometry_msgs/msg/TwistStamped", "std_msgs/Header header\nTwist twist\n"),
     ("slidetrack_msgs/msg/TactileRaw", include_str!("../../ros2/slidetrack_msgs/msg/TactileRaw.msg")),
     (
         "slidetrack_msgs/msg/TactileSensorRaw",
@@ -112,6 +117,14 @@ mod tests {
         let tf = complete_definition("tf2_msgs/msg/TFMessage").expect("known");
         for dep in ["TransformStamped", "Transform", "Vector3", "Quaternion"] {
             assert_eq!(tf.matches(&format!("MSG: geometry_msgs/msg/{dep}\n")).count(), 1, "{dep}");
+        }
+        let pose = complete_definition("geometry_msgs/msg/PoseStamped").expect("known");
+        for dep in ["Pose", "Point", "Quaternion"] {
+            assert_eq!(pose.matches(&format!("MSG: geometry_msgs/msg/{dep}\n")).count(), 1, "{dep}");
+        }
+        let twist = complete_definition("geometry_msgs/msg/TwistStamped").expect("known");
+        for dep in ["Twist", "Vector3"] {
+            assert_eq!(twist.matches(&format!("MSG: geometry_msgs/msg/{dep}\n")).count(), 1, "{dep}");
         }
         let raw = complete_definition("slidetrack_msgs/msg/TactileRaw").expect("known");
         assert!(raw.contains("MSG: slidetrack_msgs/msg/TactileSensorRaw\n"));
