@@ -131,6 +131,9 @@ fn cyclone_dds_receives_the_sessions_values_during_track() {
         "--ros2",
         "--ros2-domain",
         &d,
+        // Both outlets at once: the recorder's tap hands everything to each.
+        "--live",
+        "127.0.0.1:0",
         "--out",
         s(&session),
     ]);

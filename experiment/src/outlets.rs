@@ -51,10 +51,14 @@ pub struct Outlets {
 }
 
 impl Outlets {
-    /// The tap to give the run's recorders: the live view's, else the ROS 2
-    /// publisher's. The command line does not ask for both at once (one tap
-    /// per recorder).
+    /// The tap to give the run's recorders: the live view's, the ROS 2
+    /// publisher's, or with both one that hands everything to each.
     pub fn tap(&self) -> Option<LiveTap> {
-        self.live.as_ref().map(LiveView::tap).or_else(|| self.ros2.as_ref().map(Ros2Topics::tap))
+        let live = self.live.as_ref().map(LiveView::tap);
+        let ros2 = self.ros2.as_ref().map(Ros2Topics::tap);
+        match (live, ros2) {
+            (Some(live), Some(ros2)) => Some(live.and(&ros2)),
+            (live, ros2) => live.or(ros2),
+        }
     }
 }

@@ -100,11 +100,13 @@ struct TapState {
 pub struct LiveTap {
     tx: Sender<LiveRecord>,
     state: Arc<TapState>,
+    /// Further taps that get everything too ([`LiveTap::and`]).
+    also: Vec<LiveTap>,
 }
 
 impl PartialEq for LiveTap {
     fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.state, &other.state)
+        Arc::ptr_eq(&self.state, &other.state) && self.also == other.also
     }
 }
 
@@ -144,7 +146,24 @@ impl LiveTap {
             dropped: AtomicU64::new(0),
             sessions: AtomicU64::new(0),
         });
-        (LiveTap { tx, state: Arc::clone(&state) }, LiveReceiver { rx, state })
+        (LiveTap { tx, state: Arc::clone(&state), also: Vec::new() }, LiveReceiver { rx, state })
+    }
+
+    /// A tap that hands everything to this one and to `other` too: one
+    /// recorder, two outlets (`--live` and `--ros2`). Each keeps its own
+    /// queue, limits, subscribers and counts (a payload both want is copied
+    /// once); [`LiveTap::stats`] and [`LiveTap::set_wanted`] of the result
+    /// are this one's.
+    pub fn and(&self, other: &LiveTap) -> LiveTap {
+        let mut tap = self.clone();
+        tap.also.push(other.alone());
+        tap.also.extend(other.also.iter().cloned());
+        tap
+    }
+
+    /// This tap without the taps it hands on to.
+    fn alone(&self) -> LiveTap {
+        LiveTap { tx: self.tx.clone(), state: Arc::clone(&self.state), also: Vec::new() }
     }
 
     /// Whether anyone is subscribed: messages are forwarded only then.
@@ -223,34 +242,78 @@ fn stats_of(state: &TapState) -> LiveTapStats {
     }
 }
 
-/// A writer thread's use of a tap: the tap, its session number, and the
-/// latest message of each channel while nobody is subscribed (moved in, not
-/// copied), forwarded first when someone subscribes: a viewer that comes
-/// late still gets a calibration logged once at the start. A session played
-/// from its file feeds a tap through one too (`play --ros2`).
+/// A writer thread's use of its tap (and of the taps that tap hands on to,
+/// [`LiveTap::and`]): per tap, its session number and the latest message
+/// of each channel while nobody is subscribed (moved in, not copied),
+/// forwarded first when someone subscribes: a viewer that comes late still
+/// gets a calibration logged once at the start. A session played from its
+/// file feeds a tap through one too (`play --ros2`).
 pub struct LiveSession {
+    taps: Vec<TapSession>,
+}
+
+impl LiveSession {
+    /// Numbers the session on each tap and announces it.
+    pub fn start(tap: LiveTap, path: PathBuf) -> LiveSession {
+        let mut taps = vec![TapSession::start(tap.alone(), path.clone())];
+        taps.extend(tap.also.into_iter().map(|t| TapSession::start(t, path.clone())));
+        LiveSession { taps }
+    }
+
+    /// Announces channel `id` of the session.
+    pub fn channel(&self, id: u16, channel: LiveChannel) {
+        let channel = Arc::new(channel);
+        for t in &self.taps {
+            t.channel(id, Arc::clone(&channel));
+        }
+    }
+
+    /// Hands on a message of channel `id` (log and publish times in ns of
+    /// the session clock); never blocks (see [`LiveTap`]).
+    pub fn message(
+        &mut self,
+        channel: u16,
+        log_time: TimeNs,
+        publish_time: TimeNs,
+        sequence: u32,
+        payload: Vec<u8>,
+    ) {
+        if let Some((last, first)) = self.taps.split_last_mut() {
+            for t in first {
+                t.message(channel, log_time, publish_time, sequence, payload.clone());
+            }
+            last.message(channel, log_time, publish_time, sequence, payload);
+        }
+    }
+
+    /// Announces the end of the session.
+    pub fn finished(&self) {
+        for t in &self.taps {
+            t.finished();
+        }
+    }
+}
+
+/// A [`LiveSession`] on one tap.
+struct TapSession {
     tap: LiveTap,
     session: u64,
     latest: HashMap<u16, LiveRecord>,
     was_wanted: bool,
 }
 
-impl LiveSession {
-    /// Numbers the session and announces it.
-    pub fn start(tap: LiveTap, path: PathBuf) -> LiveSession {
+impl TapSession {
+    fn start(tap: LiveTap, path: PathBuf) -> TapSession {
         let session = tap.next_session();
         tap.control(LiveRecord::SessionStarted { session, path });
-        LiveSession { tap, session, latest: HashMap::new(), was_wanted: false }
+        TapSession { tap, session, latest: HashMap::new(), was_wanted: false }
     }
 
-    /// Announces channel `id` of the session.
-    pub fn channel(&self, id: u16, channel: LiveChannel) {
-        self.tap.control(LiveRecord::Channel { session: self.session, id, channel: Arc::new(channel) });
+    fn channel(&self, id: u16, channel: Arc<LiveChannel>) {
+        self.tap.control(LiveRecord::Channel { session: self.session, id, channel });
     }
 
-    /// Hands on a message of channel `id` (log and publish times in ns of
-    /// the session clock); never blocks (see [`LiveTap`]).
-    pub fn message(
+    fn message(
         &mut self,
         channel: u16,
         log_time: TimeNs,
@@ -279,8 +342,7 @@ impl LiveSession {
         self.tap.message(record);
     }
 
-    /// Announces the end of the session.
-    pub fn finished(&self) {
+    fn finished(&self) {
         self.tap.control(LiveRecord::SessionFinished { session: self.session });
     }
 }

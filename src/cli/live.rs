@@ -26,7 +26,7 @@ pub struct LiveArgs {
     /// Also publish the recorded tactile scans, hand state, estimates,
     /// images and /tf as ROS 2 topics over DDS (no ROS installation needed;
     /// see docs/ros2.md). The recording never waits for a subscriber.
-    #[arg(long, conflicts_with = "live")]
+    #[arg(long)]
     pub ros2: bool,
     /// With --ros2: the ROS 2 domain id (default: ROS_DOMAIN_ID, else 0).
     #[arg(long, value_name = "N", requires = "ros2")]

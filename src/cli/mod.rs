@@ -255,7 +255,10 @@ mod tests {
         };
         assert_eq!((a.live.ros2, a.live.ros2_domain), (true, None));
         assert!(parse(&["collect", "--ros2-domain", "7"]).is_err(), "--ros2-domain needs --ros2");
-        assert!(parse(&["collect", "--ros2", "--live"]).is_err(), "one outlet per run");
+        let Command::Collect(a) = parse(&["collect", "--ros2", "--live"]).unwrap().command else {
+            panic!("collect")
+        };
+        assert!(a.run.live.ros2 && a.run.live.live.is_some(), "both outlets at once");
     }
 
     #[test]

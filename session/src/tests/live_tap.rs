@@ -107,3 +107,26 @@ fn an_unwanted_or_full_tap_drops_messages_and_the_file_is_the_same() {
     assert_eq!(file_messages(&unwanted), reference);
     assert_eq!(file_messages(&full), reference);
 }
+
+/// A tap joined to another ([`LiveTap::and`], `--live` with `--ros2`):
+/// each gets every record, numbered in its own sessions, and keeps its own
+/// wish: one that nobody wants gets no message, and the other loses none.
+#[test]
+fn a_joined_tap_hands_everything_to_each_tap_that_wants_it() {
+    let dir = TestDir::new("live-and");
+    let path = dir.file("s.mcap");
+    let (a, rx_a) = LiveTap::new(1 << 20, 1 << 30);
+    let (b, rx_b) = LiveTap::new(1 << 20, 1 << 30);
+    let (c, rx_c) = LiveTap::new(1 << 20, 1 << 30);
+    a.set_wanted(true);
+    b.set_wanted(true);
+    record_scans(&path, 300, Some(a.and(&b.and(&c))));
+    let (got_a, got_b, got_c) = (drain(&rx_a), drain(&rx_b), drain(&rx_c));
+    assert_eq!(got_a, got_b, "the same records, session 1 on each");
+    assert!(matches!(got_b.first(), Some(LiveRecord::SessionStarted { session: 1, .. })));
+    let messages = |r: &[LiveRecord]| r.iter().filter(|r| matches!(r, LiveRecord::Message { .. })).count();
+    assert_eq!(messages(&got_a), 301, "every scan and the statistics");
+    assert_eq!(messages(&got_c), 0, "nobody subscribed to c");
+    assert!(matches!(got_c.last(), Some(LiveRecord::SessionFinished { session: 1 })));
+    assert_eq!((a.stats().forwarded, b.stats().forwarded, c.stats().forwarded), (301, 301, 0));
+}
