@@ -12,6 +12,7 @@ prints nothing. The network setup (loopback, unicast) comes from
 CYCLONEDDS_URI.
 """
 
+import base64
 import json
 import sys
 import threading
@@ -25,7 +26,16 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 sys.path.insert(0, str(Path(__file__).parent))
-from ros2_types import HandState, SlidingEstimate, TactileRaw  # noqa: E402
+from ros2_types import (  # noqa: E402
+    CameraInfo,
+    CompressedImage,
+    HandState,
+    PoseStamped,
+    SlidingEstimate,
+    TactileRaw,
+    TFMessage,
+    TwistStamped,
+)
 
 # The reliability of ROS 2's QoS profiles: sensor data best effort, the
 # default reliable (a reliable reader does not match a best-effort writer).
@@ -43,6 +53,11 @@ TOPICS = [
     ("/hand/state", HandState, SENSOR),
     ("/estimate/dekf", SlidingEstimate, DEFAULT),
     ("/estimate/aruco", SlidingEstimate, DEFAULT),
+    ("/camera/image", CompressedImage, SENSOR),
+    ("/camera/calibration", CameraInfo, SENSOR),
+    ("/tf", TFMessage, DEFAULT),
+    ("/estimate/pose/maskukf", PoseStamped, DEFAULT),
+    ("/estimate/velocity/maskukf", TwistStamped, DEFAULT),
 ]
 
 
@@ -50,7 +65,28 @@ def stamp_ns(header):
     return header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
 
 
+def xyz(v):
+    return [v.x, v.y, v.z]
+
+
 def fields(msg):
+    if isinstance(msg, CompressedImage):
+        data = base64.b64encode(bytes(msg.data)).decode()
+        return {"frame_id": msg.header.frame_id, "format": msg.format, "data": data}
+    if isinstance(msg, CameraInfo):
+        return {"frame_id": msg.header.frame_id, "width": msg.width, "height": msg.height, "k": list(msg.k)}
+    if isinstance(msg, TFMessage):
+        t = msg.transforms[0]
+        r = t.transform.rotation
+        return {"parent": t.header.frame_id, "child": t.child_frame_id,
+                "translation": xyz(t.transform.translation), "rotation": [r.x, r.y, r.z, r.w]}
+    if isinstance(msg, PoseStamped):
+        q = msg.pose.orientation
+        return {"frame_id": msg.header.frame_id, "position": xyz(msg.pose.position),
+                "orientation": [q.x, q.y, q.z, q.w]}
+    if isinstance(msg, TwistStamped):
+        return {"frame_id": msg.header.frame_id, "linear": xyz(msg.twist.linear),
+                "angular": xyz(msg.twist.angular)}
     if isinstance(msg, TactileRaw):
         sensors = [{"name": s.name, "x": list(s.x), "y": list(s.y), "z": list(s.z)} for s in msg.sensors]
         return {"sequence": msg.sequence, "sensors": sensors}
@@ -86,9 +122,13 @@ def main():
             continue
         for name, reader in readers:
             for msg in reader.take(N=1000):
-                if not hasattr(msg, "header"):
+                if isinstance(msg, TFMessage) and msg.transforms:
+                    header = msg.transforms[0].header
+                elif hasattr(msg, "header"):
+                    header = msg.header
+                else:
                     continue  # an invalid sample (a writer gone), no data
-                received.append({"topic": name, "stamp_ns": stamp_ns(msg.header), **fields(msg)})
+                received.append({"topic": name, "stamp_ns": stamp_ns(header), **fields(msg)})
         time.sleep(0.005)
     for line in received:
         print(json.dumps(line))
