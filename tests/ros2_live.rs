@@ -15,11 +15,9 @@
 mod common;
 
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
 
-use common::cyclone::{CYCLONE_LOOPBACK, python_with_cyclonedds};
+use common::cyclone::{python_with_cyclonedds, start_ready, stop_and_read};
 use common::{fails, ok, tempdir, trained};
 use serde_json::{Value, json};
 use slidetrack_session::{ReadOptions, read_json};
@@ -27,36 +25,6 @@ use slidetrack_session::{ReadOptions, read_json};
 /// A DDS domain id of this test process alone (`offset` tells tests apart).
 fn domain(offset: u32) -> u32 {
     10 + (std::process::id() % 100) * 2 + offset
-}
-
-/// Starts the Cyclone DDS subscriber on `domain` and waits until its readers exist.
-fn subscribe(python: &Path, domain: u32) -> Child {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/ros2_subscriber.py");
-    let mut child = Command::new(python)
-        .arg(script)
-        .arg(domain.to_string())
-        .env("CYCLONEDDS_URI", CYCLONE_LOOPBACK)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("python runs");
-    let mut stderr = BufReader::new(child.stderr.take().expect("stderr"));
-    let mut line = String::new();
-    stderr.read_line(&mut line).expect("the subscriber's first line");
-    assert_eq!(line.trim(), "ready", "the subscriber did not start: {line}");
-    child
-}
-
-/// Closes the subscriber's stdin and returns what it received, one JSON object per message.
-fn received(mut child: Child) -> Vec<Value> {
-    drop(child.stdin.take());
-    let out = child.wait_with_output().expect("the subscriber ends");
-    assert!(out.status.success(), "the subscriber failed");
-    String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("JSON line"))
-        .collect()
 }
 
 fn s(p: &Path) -> &str {
@@ -125,7 +93,7 @@ fn cyclone_dds_receives_the_sessions_values_during_track() {
     let (_, model) = trained(dir.path());
     let session = dir.path().join("tracked.mcap");
     let domain = domain(0);
-    let subscriber = subscribe(&python, domain);
+    let subscriber = start_ready(&python, "ros2_subscriber.py", domain);
     // At real time, so that the subscriber matches the writers early in the
     // trial; on a loaded machine (CI, shared cores) a scan may come late to
     // the controller, which this test is not about: a looser age limit.
@@ -153,7 +121,7 @@ fn cyclone_dds_receives_the_sessions_values_during_track() {
         "--out",
         s(&session),
     ]);
-    let got = received(subscriber);
+    let got = stop_and_read(subscriber);
     assert_values_are_the_sessions(
         &session,
         &got,
@@ -175,11 +143,11 @@ fn cyclone_dds_receives_a_played_sessions_values() {
     let args = ["-q", "track", "--model", s(&model), "--duration", "3", "--seed", "8", "--vision", "maskukf"];
     ok(&[&args[..], &["--out", s(&session)]].concat());
     let domain = domain(1);
-    let subscriber = subscribe(&python, domain);
+    let subscriber = start_ready(&python, "ros2_subscriber.py", domain);
     let d = domain.to_string();
     let out = ok(&["play", s(&session), "--ros2", "--ros2-domain", &d, "--rate", "2"]);
     assert!(out.contains("end reached 1 time(s)"), "{out}");
-    let got = received(subscriber);
+    let got = stop_and_read(subscriber);
     assert_values_are_the_sessions(
         &session,
         &got,

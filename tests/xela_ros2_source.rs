@@ -14,11 +14,10 @@
 mod common;
 
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Child;
 
-use common::cyclone::{CYCLONE_LOOPBACK, python_with_cyclonedds};
+use common::cyclone::{python_with_cyclonedds, start_ready, stop_and_read};
 use common::{run, tempdir};
 use serde_json::Value;
 use slidetrack_session::{ReadOptions, TactileCalibrated, TactileDeviceTime, TactileRaw, read_channel};
@@ -28,39 +27,30 @@ fn domain() -> u32 {
     212 + (std::process::id() % 10) * 2
 }
 
-/// Starts the publisher on `domain` and waits until its writer exists.
-fn publish(python: &Path, domain: u32) -> Child {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/xela_ros2_publisher.py");
-    let mut child = Command::new(python)
-        .arg(script)
-        .arg(domain.to_string())
-        .env("CYCLONEDDS_URI", CYCLONE_LOOPBACK)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("python runs");
-    let mut stderr = BufReader::new(child.stderr.take().expect("stderr"));
-    let mut line = String::new();
-    stderr.read_line(&mut line).expect("the publisher's first line");
-    assert_eq!(line.trim(), "ready", "the publisher did not start: {line}");
-    child
-}
-
 /// Stops the publisher; what it published, by message counter, then by sensor_pos.
-fn published(mut child: Child) -> HashMap<u64, HashMap<u64, Value>> {
-    drop(child.stdin.take());
-    let out = child.wait_with_output().expect("the publisher ends");
-    assert!(out.status.success(), "the publisher failed");
-    String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| {
-            let m: Value = serde_json::from_str(l).expect("JSON line");
+fn published(child: Child) -> HashMap<u64, HashMap<u64, Value>> {
+    stop_and_read(child)
+        .into_iter()
+        .map(|m| {
             let sensors = m["sensors"].as_array().expect("sensors");
             let n = sensors[0]["message"].as_u64().expect("message");
             (n, sensors.iter().map(|s| (s["sensor_pos"].as_u64().expect("pos"), s.clone())).collect())
         })
         .collect()
+}
+
+/// `slidetrack -q record` for 2 s with the rig `rig_path`, into `file`.
+fn record(rig_path: &Path, file: &Path) -> std::process::Output {
+    run(&[
+        "-q",
+        "record",
+        "--config",
+        rig_path.to_str().expect("utf-8 path"),
+        "--duration",
+        "2",
+        "--out",
+        file.to_str().expect("utf-8 path"),
+    ])
 }
 
 /// sensor_pos 2 first, then 1 (the layout's order is the table's, not the
@@ -111,17 +101,8 @@ fn every_taxel_published_by_cyclone_dds_is_recorded() {
     let rig_path = dir.path().join("rig.toml");
     std::fs::write(&rig_path, rig(domain)).expect("rig TOML");
     let file = dir.path().join("xela.mcap");
-    let publisher = publish(&python, domain);
-    let out = run(&[
-        "-q",
-        "record",
-        "--config",
-        rig_path.to_str().unwrap(),
-        "--duration",
-        "2",
-        "--out",
-        file.to_str().unwrap(),
-    ]);
+    let publisher = start_ready(&python, "xela_ros2_publisher.py", domain);
+    let out = record(&rig_path, &file);
     let sent = published(publisher);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "record failed: {stderr}");
@@ -171,17 +152,8 @@ fn a_sensor_the_server_does_not_send_is_named_in_one_line() {
     let rig_path = dir.path().join("rig.toml");
     std::fs::write(&rig_path, rig(domain).replace("sensor = 1\n", "sensor = 9\n")).expect("rig TOML");
     let file = dir.path().join("xela.mcap");
-    let publisher = publish(&python, domain);
-    let out = run(&[
-        "-q",
-        "record",
-        "--config",
-        rig_path.to_str().unwrap(),
-        "--duration",
-        "2",
-        "--out",
-        file.to_str().unwrap(),
-    ]);
+    let publisher = start_ready(&python, "xela_ros2_publisher.py", domain);
+    let out = record(&rig_path, &file);
     drop(published(publisher));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && !stderr.contains("panicked"), "{stderr}");
@@ -200,16 +172,7 @@ fn no_publisher_is_a_startup_timeout_naming_the_topic() {
     let text = rig(domain() + 1).replace("kind = \"ros2\"\n", "kind = \"ros2\"\nstartup_timeout_ms = 1500\n");
     std::fs::write(&rig_path, text).expect("rig TOML");
     let file = dir.path().join("xela.mcap");
-    let out = run(&[
-        "-q",
-        "record",
-        "--config",
-        rig_path.to_str().unwrap(),
-        "--duration",
-        "2",
-        "--out",
-        file.to_str().unwrap(),
-    ]);
+    let out = record(&rig_path, &file);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && !stderr.contains("panicked"), "{stderr}");
     assert!(

@@ -1,8 +1,11 @@
 //! Eclipse Cyclone DDS (the `cyclonedds` Python binding in target/pyenv),
 //! the independent DDS of the ROS 2 tests.
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Child, Command, Stdio};
+
+use serde_json::Value;
 
 /// Cyclone DDS on loopback, unicast discovery to the same host's ports.
 pub const CYCLONE_LOOPBACK: &str = "<CycloneDDS><Domain id=\"any\"><General><Interfaces>\
@@ -25,4 +28,36 @@ pub fn python_with_cyclonedds() -> Option<PathBuf> {
         return None;
     }
     Some(python)
+}
+
+/// Starts `tests/python/SCRIPT DOMAIN` on Cyclone DDS over loopback and
+/// waits until it says `ready` on stderr (its readers or writers exist).
+pub fn start_ready(python: &Path, script: &str, domain: u32) -> Child {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python").join(script);
+    let mut child = Command::new(python)
+        .arg(path)
+        .arg(domain.to_string())
+        .env("CYCLONEDDS_URI", CYCLONE_LOOPBACK)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python runs");
+    let mut stderr = BufReader::new(child.stderr.take().expect("stderr"));
+    let mut line = String::new();
+    stderr.read_line(&mut line).unwrap_or_else(|e| panic!("{script}: its first line: {e}"));
+    assert_eq!(line.trim(), "ready", "{script} did not start: {line}");
+    child
+}
+
+/// Closes the stdin of a script started by [`start_ready`] (which ends
+/// it) and returns what it printed, one JSON value per line.
+pub fn stop_and_read(mut child: Child) -> Vec<Value> {
+    drop(child.stdin.take());
+    let out = child.wait_with_output().expect("the script ends");
+    assert!(out.status.success(), "the script failed");
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect()
 }
