@@ -168,6 +168,11 @@ fn a_planar_model_trains_evaluates_replays_and_tracks() {
     // filter on the replay's inputs and finds the same estimates.
     let r = check_against_the_reference(s(&model), &replayed, estimates.len() as u64);
     assert_eq!(r["state"], "planar");
+    // As a ROS 2 bag: an independent reader finds every planar estimate.
+    if let Some(python) = common::rosbags::python_with_rosbags() {
+        let summary = common::rosbags::export_and_check(&python, &replayed);
+        assert_eq!(summary["/estimate/dekf_planar"].as_u64(), Some(estimates.len() as u64), "{summary}");
+    }
 
     let tracked = dir.path().join("track.mcap");
     ok(&[

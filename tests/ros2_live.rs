@@ -78,6 +78,13 @@ fn as_ros(topic: &str, m: &Value) -> Value {
         }
         "/estimate/velocity/maskukf" => json!({"frame_id": m["frame_id"],
             "linear": m["linear_velocity_mps"], "angular": m["angular_velocity_radps"]}),
+        "/estimate/odometry/maskukf" => {
+            let q = &m["orientation"];
+            json!({"frame_id": m["frame_id"], "child": m["child_frame_id"], "position": m["position_m"],
+                   "orientation": [q["x"], q["y"], q["z"], q["w"]], "pose_covariance": m["pose_covariance"],
+                   "linear": m["linear_velocity_in_child_mps"], "angular": m["angular_velocity_in_child_radps"],
+                   "twist_covariance": m["twist_covariance"]})
+        }
         _ => {
             let c = &m["covariance"];
             json!({"position": m["position"], "velocity": m["velocity"],
@@ -131,9 +138,9 @@ fn cyclone_dds_receives_the_sessions_values_during_track() {
 
 /// `play --ros2`: a session tracked with MaskUKF published at twice its
 /// recorded speed; the subscriber receives its tactile scans, hand states,
-/// dEKF and marker estimates, camera images, MaskUKF's poses, velocities
-/// and transforms (`/tf`), and the camera calibration, with the session's
-/// values.
+/// dEKF and marker estimates, camera images, MaskUKF's poses, velocities,
+/// estimates with covariance (`nav_msgs/Odometry`) and transforms (`/tf`),
+/// and the camera calibration, with the session's values.
 #[test]
 fn cyclone_dds_receives_a_played_sessions_values() {
     let Some(python) = python_with_cyclonedds() else { return };
@@ -160,6 +167,7 @@ fn cyclone_dds_receives_a_played_sessions_values() {
             "/tf",
             "/estimate/pose/maskukf",
             "/estimate/velocity/maskukf",
+            "/estimate/odometry/maskukf",
         ],
     );
     // The camera calibration is one message, the first the player sends,

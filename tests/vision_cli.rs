@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use common::{fails, ok, tempdir};
 use serde_json::Value;
 use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
-use slidetrack_session::{PoseInFrame, ReadOptions, SessionInfo, read_json};
+use slidetrack_session::{
+    ChannelMessage, PoseInFrame, ReadOptions, RoftOdometry, SessionInfo, read_channel, read_json,
+};
 use slidetrack_vision::input::read_meta;
 
 /// Bounds of ROFT on the simulated session: it reaches 8.8 cm, 29 degrees
@@ -21,6 +23,43 @@ const ADD_AUC_PERCENT: f64 = 20.0;
 fn rgbd(rel: &str) -> String {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/testdata/rgbd").join(rel);
     path.to_str().expect("utf-8 path").to_string()
+}
+
+/// `/estimate/odometry/roft` holds `count` estimates, each the pose of
+/// `/estimate/pose/roft` at its time with a symmetric covariance whose
+/// standard deviations are positive and plausible (0.01 mm to 1 m, 0.001 to
+/// 90 degrees): catches covariances left out, zero or unpropagated, or an
+/// odometry pose that is not the tracker's.
+fn assert_odometry_is_the_pose_with_a_covariance(session: &Path, count: usize) {
+    let odometry = read_channel::<RoftOdometry>(session, ReadOptions::default()).expect("odometry");
+    let poses: Vec<(_, PoseInFrame)> =
+        read_json(session, "/estimate/pose/roft", ReadOptions::default()).expect("poses");
+    assert_eq!((odometry.len(), poses.len()), (count, count), "{}", RoftOdometry::TOPIC);
+    for ((t, o), (tp, p)) in odometry.iter().zip(&poses) {
+        let o = &o.0;
+        assert_eq!(t, tp);
+        let position = [p.pose.position.x, p.pose.position.y, p.pose.position.z];
+        assert_eq!((o.position_m, o.orientation), (position, p.pose.orientation), "at {t:?}");
+        for (what, cov) in [("pose", &o.pose_covariance), ("twist", &o.twist_covariance)] {
+            assert_eq!(cov.len(), 36, "{what} at {t:?}");
+            for r in 0..6 {
+                for c in 0..r {
+                    assert!(
+                        (cov[6 * r + c] - cov[6 * c + r]).abs() <= 1e-12 * cov[6 * r + r].max(cov[6 * c + c])
+                    );
+                }
+            }
+        }
+        let sd = |k: usize| o.pose_covariance[7 * k].sqrt();
+        assert!(
+            (0..3).all(|k| (1e-5..1.0).contains(&sd(k))),
+            "position sd at {t:?}: {:?}",
+            o.pose_covariance
+        );
+        let rotation_sd_deg = (3..6).map(|k| sd(k).to_degrees());
+        assert!(rotation_sd_deg.clone().all(|d| (1e-3..90.0).contains(&d)), "rotation sd at {t:?}");
+        assert!((0..6).all(|k| o.twist_covariance[7 * k] > 0.0), "twist variances at {t:?}");
+    }
 }
 
 #[test]
@@ -81,6 +120,7 @@ fn a_simulated_session_is_tracked_by_roft_and_maskukf() {
     for topic in ["/estimate/pose/roft", "/estimate/transform/roft", "/estimate/velocity/roft"] {
         assert_eq!(info.channel(topic).map(|c| c.message_count), Some(39), "{topic}");
     }
+    assert_odometry_is_the_pose_with_a_covariance(&estimates, 39);
 
     let out = ok(&[
         "-q",

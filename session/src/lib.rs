@@ -20,6 +20,7 @@ pub mod in_hand;
 mod live;
 pub mod messages;
 mod metadata;
+pub mod odometry;
 mod reader;
 mod recorder;
 mod records;
@@ -56,6 +57,7 @@ pub use messages::{
     TactileZeroed, TaxelLayout, Xyz, channel_specs, scan_of, sensor_taxels,
 };
 pub use metadata::{OUTCOME_METADATA, SESSION_METADATA, SessionMetadata, SessionOutcome};
+pub use odometry::{MaskUkfOdometry, Odometry, RoftOdometry};
 pub use reader::{MessageReader, ReadOptions, read_channel, read_json, release_time};
 pub use recorder::Recorder;
 pub use rewrite::{NewChannel, NewMessage, RewriteReport, rewrite_session};

@@ -272,6 +272,7 @@ macro_rules! channel {
         }
     };
 }
+pub(crate) use channel;
 
 channel!(
     /// `/rgbd/color`: colour frames of the RGB-D camera (JPEG).
@@ -341,6 +342,8 @@ pub fn vision_channel_specs() -> Vec<ChannelSpec> {
         ChannelSpec::of::<RoftPose>(),
         ChannelSpec::of::<RoftTransform>(),
         ChannelSpec::of::<RoftVelocity>(),
+        ChannelSpec::of::<super::odometry::MaskUkfOdometry>(),
+        ChannelSpec::of::<super::odometry::RoftOdometry>(),
     ]
 }
 

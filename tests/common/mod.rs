@@ -7,6 +7,7 @@
 #![allow(dead_code, reason = "each test binary uses its own part of these helpers")]
 
 pub mod cyclone;
+pub mod rosbags;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

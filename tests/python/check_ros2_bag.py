@@ -162,6 +162,31 @@ def check_twist(m, j, t):
     return None
 
 
+def check_odometry(m, j, t):
+    if stamp_ns(m.header) != t or m.header.frame_id != j["frame_id"] or m.child_frame_id != j["child_frame_id"]:
+        return "header or child frame"
+    p, q = m.pose.pose.position, m.pose.pose.orientation
+    if [p.x, p.y, p.z] != j["position_m"] or [q.x, q.y, q.z, q.w] != [j["orientation"][k] for k in "xyzw"]:
+        return "pose"
+    v, w = m.twist.twist.linear, m.twist.twist.angular
+    if [v.x, v.y, v.z] != j["linear_velocity_in_child_mps"] or [w.x, w.y, w.z] != j["angular_velocity_in_child_radps"]:
+        return "twist"
+    if not close(m.pose.covariance, j["pose_covariance"]) or not close(m.twist.covariance, j["twist_covariance"]):
+        return "covariances"
+    return None
+
+
+def check_planar(m, j, t):
+    s = j["state"]
+    if stamp_ns(m.header) != t or not close(m.translation, s["translation_m"]) or m.rotation != s["rotation_rad"]:
+        return "header, translation or rotation"
+    if not close(m.velocity, s["velocity_m_per_s"]) or m.angular_velocity != s["angular_velocity_rad_per_s"]:
+        return "velocities"
+    if not close(m.covariance, j["covariance"]):
+        return "covariance"
+    return None
+
+
 # session schema -> (ROS 2 type, bag topic or None for the session's, check)
 CONVERTED = {
     "slidetrack.TactileRaw": ("slidetrack_msgs/msg/TactileRaw", None, check_tactile),
@@ -173,6 +198,8 @@ CONVERTED = {
     "foxglove.FrameTransform": ("tf2_msgs/msg/TFMessage", "/tf", check_tf),
     "foxglove.PoseInFrame": ("geometry_msgs/msg/PoseStamped", None, check_pose),
     "slidetrack.VelocityEstimate": ("geometry_msgs/msg/TwistStamped", None, check_twist),
+    "slidetrack.Odometry": ("nav_msgs/msg/Odometry", None, check_odometry),
+    "slidetrack.PlanarEstimate": ("slidetrack_msgs/msg/PlanarEstimate", None, check_planar),
 }
 
 

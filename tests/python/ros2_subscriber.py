@@ -30,6 +30,7 @@ from ros2_types import (  # noqa: E402
     CameraInfo,
     CompressedImage,
     HandState,
+    Odometry,
     PoseStamped,
     SlidingEstimate,
     TactileRaw,
@@ -58,6 +59,7 @@ TOPICS = [
     ("/tf", TFMessage, DEFAULT),
     ("/estimate/pose/maskukf", PoseStamped, DEFAULT),
     ("/estimate/velocity/maskukf", TwistStamped, DEFAULT),
+    ("/estimate/odometry/maskukf", Odometry, DEFAULT),
 ]
 
 
@@ -87,6 +89,13 @@ def fields(msg):
     if isinstance(msg, TwistStamped):
         return {"frame_id": msg.header.frame_id, "linear": xyz(msg.twist.linear),
                 "angular": xyz(msg.twist.angular)}
+    if isinstance(msg, Odometry):
+        pose, twist = msg.pose, msg.twist
+        q = pose.pose.orientation
+        return {"frame_id": msg.header.frame_id, "child": msg.child_frame_id,
+                "position": xyz(pose.pose.position), "orientation": [q.x, q.y, q.z, q.w],
+                "pose_covariance": list(pose.covariance), "linear": xyz(twist.twist.linear),
+                "angular": xyz(twist.twist.angular), "twist_covariance": list(twist.covariance)}
     if isinstance(msg, TactileRaw):
         sensors = [{"name": s.name, "x": list(s.x), "y": list(s.y), "z": list(s.z)} for s in msg.sensors]
         return {"sequence": msg.sequence, "sensors": sensors}

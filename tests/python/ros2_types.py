@@ -164,3 +164,26 @@ class Twist(IdlStruct, typename="geometry_msgs.msg.dds_.Twist_"):
 class TwistStamped(IdlStruct, typename="geometry_msgs.msg.dds_.TwistStamped_"):
     header: Header
     twist: Twist
+
+
+@dataclass
+class PoseWithCovariance(IdlStruct, typename="geometry_msgs.msg.dds_.PoseWithCovariance_"):
+    pose: Pose
+    covariance: array[float64, 36]
+
+
+@dataclass
+class TwistWithCovariance(IdlStruct, typename="geometry_msgs.msg.dds_.TwistWithCovariance_"):
+    twist: Twist
+    covariance: array[float64, 36]
+
+
+# nav_msgs: ros2/common_interfaces, nav_msgs/msg/Odometry.msg.
+
+
+@dataclass
+class Odometry(IdlStruct, typename="nav_msgs.msg.dds_.Odometry_"):
+    header: Header
+    child_frame_id: str
+    pose: PoseWithCovariance
+    twist: TwistWithCovariance

@@ -7,9 +7,11 @@ use std::sync::Arc;
 
 use nalgebra::{Isometry3, Vector6};
 use slidetrack_core::{CameraIntrinsics, RgbdFrame, TimeNs};
+use slidetrack_estimators::maskukf::state as maskukf_state;
 use slidetrack_estimators::maskukf::{CloudInput, MaskUkf, MaskUkfConfig, MeasurementUsed, ObjectPoints};
 use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
-use slidetrack_estimators::orientation::PoseVelocity;
+use slidetrack_estimators::orientation::{OdometryCovariance, PoseVelocity, odometry_covariance};
+use slidetrack_estimators::roft::pose as roft_pose;
 use slidetrack_estimators::roft::{Mask, PoseUse, Roft, RoftConfig, RoftInput};
 
 use crate::VisionError;
@@ -68,6 +70,10 @@ pub struct TrackedState {
     pub t: TimeNs,
     /// Pose and mixed velocity, camera frame.
     pub estimate: PoseVelocity,
+    /// The covariances of the pose (camera frame) and of the twist (object
+    /// frame) in the layout of ROS's `nav_msgs/Odometry`, from the filter's
+    /// belief (see [`slidetrack_estimators::orientation::odometry`]).
+    pub covariance: OdometryCovariance,
     /// ROFT: its velocity tracker's spatial velocity `𝒱 = (v, ω)` (m/s,
     /// rad/s, camera frame; Sec. 5.3, Table 5.3); `None` for MaskUKF.
     pub flow_velocity: Option<Vector6<f64>>,
@@ -256,9 +262,12 @@ impl OnlineTracker for MaskUkfTracker {
             return Ok(None);
         };
         let report = filter.step(dt_s, input)?;
+        let belief = filter.belief();
+        let covariance = odometry_covariance(&belief.mean, &belief.cov, maskukf_state::pose_velocity)?;
         Ok(Some(TrackedState {
             t: frame.t,
             estimate: filter.estimate(),
+            covariance,
             flow_velocity: None,
             note: StepNote::MaskUkf {
                 used: report.used,
@@ -345,9 +354,11 @@ impl OnlineTracker for RoftTracker {
         };
         let report = self.roft.step(input)?;
         let flow_velocity = self.roft.spatial_velocity();
-        Ok(self.roft.estimate().map(|estimate| TrackedState {
+        let Some(belief) = self.roft.belief() else { return Ok(None) };
+        Ok(Some(TrackedState {
             t: frame.t,
-            estimate,
+            estimate: roft_pose::pose_velocity(&belief.mean),
+            covariance: odometry_covariance(&belief.mean, &belief.cov, roft_pose::pose_velocity)?,
             flow_velocity: Some(flow_velocity),
             note: StepNote::Roft { flow_vectors: report.flow_vectors, pose: report.pose },
         }))

@@ -5,7 +5,9 @@ use std::collections::BTreeMap;
 
 use nalgebra::Isometry3;
 use slidetrack_core::{CameraIntrinsics, EncodedImage, ObjectTruth as SimObjectTruth, RgbdFrame, TimeNs};
+use slidetrack_estimators::orientation::{OdometryCovariance, twist_in_object};
 use slidetrack_estimators::roft::Mask;
+use slidetrack_session::odometry::{MaskUkfOdometry, Odometry, RoftOdometry};
 use slidetrack_session::vision_pose::{
     MaskUkfPose, MaskUkfTransform, MaskUkfVelocity, RoftPose, RoftTransform, RoftVelocity,
 };
@@ -137,12 +139,23 @@ impl RgbdChannels {
 }
 
 /// The estimate channels of one tracker: `/estimate/pose/<tracker>`,
-/// `/estimate/transform/<tracker>` and `/estimate/velocity/<tracker>`.
+/// `/estimate/transform/<tracker>`, `/estimate/velocity/<tracker>` and
+/// `/estimate/odometry/<tracker>` (the estimate with its covariance).
 pub enum EstimateChannels {
     /// MaskUKF's.
-    MaskUkf(ChannelHandle<MaskUkfPose>, ChannelHandle<MaskUkfTransform>, ChannelHandle<MaskUkfVelocity>),
+    MaskUkf(
+        ChannelHandle<MaskUkfPose>,
+        ChannelHandle<MaskUkfTransform>,
+        ChannelHandle<MaskUkfVelocity>,
+        ChannelHandle<MaskUkfOdometry>,
+    ),
     /// ROFT's.
-    Roft(ChannelHandle<RoftPose>, ChannelHandle<RoftTransform>, ChannelHandle<RoftVelocity>),
+    Roft(
+        ChannelHandle<RoftPose>,
+        ChannelHandle<RoftTransform>,
+        ChannelHandle<RoftVelocity>,
+        ChannelHandle<RoftOdometry>,
+    ),
 }
 
 impl EstimateChannels {
@@ -154,8 +167,10 @@ impl EstimateChannels {
                 logger.register(none())?,
                 logger.register(none())?,
                 logger.register(none())?,
+                logger.register(none())?,
             ),
             TrackerKind::Roft => EstimateChannels::Roft(
+                logger.register(none())?,
                 logger.register(none())?,
                 logger.register(none())?,
                 logger.register(none())?,
@@ -164,10 +179,14 @@ impl EstimateChannels {
     }
 
     /// The topics, for messages.
-    pub fn topics(kind: TrackerKind) -> [&'static str; 3] {
+    pub fn topics(kind: TrackerKind) -> [&'static str; 4] {
         match kind {
-            TrackerKind::MaskUkf => [MaskUkfPose::TOPIC, MaskUkfTransform::TOPIC, MaskUkfVelocity::TOPIC],
-            TrackerKind::Roft => [RoftPose::TOPIC, RoftTransform::TOPIC, RoftVelocity::TOPIC],
+            TrackerKind::MaskUkf => {
+                [MaskUkfPose::TOPIC, MaskUkfTransform::TOPIC, MaskUkfVelocity::TOPIC, MaskUkfOdometry::TOPIC]
+            }
+            TrackerKind::Roft => {
+                [RoftPose::TOPIC, RoftTransform::TOPIC, RoftVelocity::TOPIC, RoftOdometry::TOPIC]
+            }
         }
     }
 
@@ -180,6 +199,7 @@ impl EstimateChannels {
             EstimateChannels::Roft(..) => TrackerKind::Roft,
         };
         let child = format!("object/{}", kind.name());
+        let odometry = odometry_message(state, &child);
         let transform = FrameTransform::new(t, CAMERA_FRAME, &child, &state.estimate.camera_from_object);
         let velocity = VelocityEstimate {
             frame_id: CAMERA_FRAME.into(),
@@ -187,17 +207,36 @@ impl EstimateChannels {
             angular_velocity_radps: state.estimate.angular_velocity_radps.into(),
         };
         match self {
-            EstimateChannels::MaskUkf(p, tf, v) => {
+            EstimateChannels::MaskUkf(p, tf, v, o) => {
                 logger.log_json(p, t, t, 0, &MaskUkfPose(pose))?;
                 logger.log_json(tf, t, t, 0, &MaskUkfTransform(transform))?;
                 logger.log_json(v, t, t, 0, &MaskUkfVelocity(velocity))?;
+                logger.log_json(o, t, t, 0, &MaskUkfOdometry(odometry))?;
             }
-            EstimateChannels::Roft(p, tf, v) => {
+            EstimateChannels::Roft(p, tf, v, o) => {
                 logger.log_json(p, t, t, 0, &RoftPose(pose))?;
                 logger.log_json(tf, t, t, 0, &RoftTransform(transform))?;
                 logger.log_json(v, t, t, 0, &RoftVelocity(velocity))?;
+                logger.log_json(o, t, t, 0, &RoftOdometry(odometry))?;
             }
         }
         Ok(())
+    }
+}
+
+/// The estimate with its covariance as `slidetrack.Odometry`: the pose in
+/// the camera frame, the twist in the object frame `child`.
+pub fn odometry_message(state: &TrackedState, child: &str) -> Odometry {
+    let pose = &state.estimate.camera_from_object;
+    let twist = twist_in_object(&state.estimate);
+    Odometry {
+        frame_id: CAMERA_FRAME.into(),
+        child_frame_id: child.into(),
+        position_m: pose.translation.vector.into(),
+        orientation: (&pose.rotation).into(),
+        pose_covariance: OdometryCovariance::row_major(&state.covariance.pose),
+        linear_velocity_in_child_mps: [twist[0], twist[1], twist[2]],
+        angular_velocity_in_child_radps: [twist[3], twist[4], twist[5]],
+        twist_covariance: OdometryCovariance::row_major(&state.covariance.twist_in_child),
     }
 }

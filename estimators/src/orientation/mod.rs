@@ -4,10 +4,12 @@
 //! which the UKF of [`crate::ukf`] runs with those operators.
 
 pub mod euler;
+pub mod odometry;
 pub mod pose;
 pub mod quaternion;
 pub mod symmetry;
 
+pub use odometry::{OdometryCovariance, odometry_covariance, twist_in_object};
 pub use pose::PoseVelocity;
 pub use symmetry::{Symmetry, rotation_error_modulo_symmetry_deg};
 

@@ -137,7 +137,13 @@ impl Roft {
 
     /// The current estimate, once a pose measurement has started the tracker.
     pub fn estimate(&self) -> Option<PoseVelocity> {
-        self.history.back()?.filtered.as_ref().map(|b| pose::pose_velocity(&b.mean))
+        self.belief().map(|b| pose::pose_velocity(&b.mean))
+    }
+
+    /// The pose UKF's current belief (state (5.10), 12 x 12 covariance in
+    /// the tangent of its `⊕`), once a pose measurement has started the tracker.
+    pub fn belief(&self) -> Option<&Belief<Composite>> {
+        self.history.back()?.filtered.as_ref()
     }
 
     /// The configuration.

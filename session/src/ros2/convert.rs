@@ -11,10 +11,8 @@
 //! | `foxglove.FrameTransform` | `tf2_msgs/msg/TFMessage` (on `/tf`) | its time, parent frame |
 //! | `foxglove.PoseInFrame` (the vision trackers' poses) | `geometry_msgs/msg/PoseStamped` | its time and frame |
 //! | `slidetrack.VelocityEstimate` (their velocities) | `geometry_msgs/msg/TwistStamped` | log time, its frame |
-//!
-//! The vision trackers record no covariance with their poses and
-//! velocities, so these are the plain stamped types, not the
-//! `...WithCovariance...` ones with a made-up covariance.
+//! | `slidetrack.Odometry` (their estimates with covariance) | `nav_msgs/msg/Odometry` | log time, its frame |
+//! | `slidetrack.PlanarEstimate` | `slidetrack_msgs/msg/PlanarEstimate` | log time, no frame |
 //!
 //! Every other schema has no ROS 2 counterpart here and is left out.
 
@@ -23,7 +21,9 @@ use slidetrack_core::TimeNs;
 
 use super::cdr::CdrWriter;
 use crate::estimates::SlidingEstimate;
+use crate::in_hand::PlanarEstimate;
 use crate::messages::{HandState, TactileRaw};
+use crate::odometry::Odometry;
 use crate::vision::{CameraCalibration, CompressedImage, FoxgloveTime};
 use crate::vision_pose::{FrameTransform, PoseInFrame, RawImage, VelocityEstimate};
 
@@ -51,6 +51,8 @@ pub fn ros2_type<'a>(schema: &str, topic: &'a str) -> Option<(&'static str, &'a 
         "foxglove.FrameTransform" => ("tf2_msgs/msg/TFMessage", "/tf"),
         "foxglove.PoseInFrame" => ("geometry_msgs/msg/PoseStamped", topic),
         "slidetrack.VelocityEstimate" => ("geometry_msgs/msg/TwistStamped", topic),
+        "slidetrack.Odometry" => ("nav_msgs/msg/Odometry", topic),
+        "slidetrack.PlanarEstimate" => ("slidetrack_msgs/msg/PlanarEstimate", topic),
         _ => return None,
     })
 }
@@ -107,6 +109,15 @@ pub fn convert(
             let [wx, wy, wz] = m.angular_velocity_radps;
             w.f64(vx).f64(vy).f64(vz).f64(wx).f64(wy).f64(wz);
         }
+        "slidetrack.Odometry" => odometry(&mut w, log_time, &decode(json)?)?,
+        "slidetrack.PlanarEstimate" => {
+            let m: PlanarEstimate = decode(json)?;
+            header(&mut w, stamp_of(log_time), "");
+            let s = &m.state;
+            w.f64_array(&s.translation_m).f64(s.rotation_rad);
+            w.f64_array(&s.velocity_m_per_s).f64(s.angular_velocity_rad_per_s);
+            w.f64_array(covariance_36("covariance", &m.covariance)?);
+        }
         _ => return Ok(None),
     }
     Ok(Some(Ros2Message { ros_type, topic: topic.to_string(), data: w.finish() }))
@@ -114,6 +125,32 @@ pub fn convert(
 
 fn decode<T: DeserializeOwned>(json: &[u8]) -> Result<T, serde_json::Error> {
     serde_json::from_slice(json)
+}
+
+/// A `float64[36]` covariance: exactly 36 values, else the JSON error of a
+/// payload that does not match its schema.
+fn covariance_36<'a>(field: &str, values: &'a [f64]) -> Result<&'a [f64], serde_json::Error> {
+    if values.len() == 36 {
+        Ok(values)
+    } else {
+        Err(serde::de::Error::custom(format!("{field}: {} values, a 6x6 covariance has 36", values.len())))
+    }
+}
+
+/// `nav_msgs/Odometry`: header, `child_frame_id`, `PoseWithCovariance`
+/// (`Pose`, `float64[36]`), `TwistWithCovariance` (`Twist`, `float64[36]`).
+fn odometry(w: &mut CdrWriter, log_time: TimeNs, m: &Odometry) -> Result<(), serde_json::Error> {
+    let (pose_covariance, twist_covariance) = (
+        covariance_36("pose_covariance", &m.pose_covariance)?,
+        covariance_36("twist_covariance", &m.twist_covariance)?,
+    );
+    header(w, stamp_of(log_time), &m.frame_id);
+    w.string(&m.child_frame_id);
+    let ([x, y, z], q) = (m.position_m, m.orientation);
+    w.f64(x).f64(y).f64(z).f64(q.x).f64(q.y).f64(q.z).f64(q.w).f64_array(pose_covariance);
+    let ([vx, vy, vz], [wx, wy, wz]) = (m.linear_velocity_in_child_mps, m.angular_velocity_in_child_radps);
+    w.f64(vx).f64(vy).f64(vz).f64(wx).f64(wy).f64(wz).f64_array(twist_covariance);
+    Ok(())
 }
 
 /// A session-clock time as `builtin_interfaces/Time`.
@@ -260,5 +297,72 @@ mod tests {
         assert_eq!(m.data, bytes(expected));
         assert_eq!(convert("slidetrack.SimTruth", "/sim/truth", TimeNs(0), b"{}").unwrap(), None);
         assert!(convert("slidetrack.TactileRaw", "/tactile/raw", TimeNs(0), b"{\"sequence\":1}").is_err());
+    }
+
+    #[test]
+    fn a_vision_estimate_with_covariance_is_rosbags_odometry_at_its_log_time() {
+        let (pose_cov, twist_cov): (Vec<f64>, Vec<f64>) =
+            (0..36).map(|k| (0.5 * f64::from(k), -f64::from(k))).unzip();
+        let json = serde_json::json!({
+            "frame_id": "camera", "child_frame_id": "object/maskukf",
+            "position_m": [0.1, -0.2, 0.5], "orientation": {"x": 0.0, "y": 0.0, "z": 0.6, "w": 0.8},
+            "pose_covariance": pose_cov,
+            "linear_velocity_in_child_mps": [0.01, 0.02, -0.03], "angular_velocity_in_child_radps": [0.1, 0.0, -0.2],
+            "twist_covariance": twist_cov,
+        });
+        let m = cdr("slidetrack.Odometry", 5, &json.to_string());
+        assert_eq!(m.ros_type, "nav_msgs/msg/Odometry");
+        let expected = concat!(
+            "0001000000000000050000000700000063616d65726100000f0000006f626a6563742f6d61736b756b6600009a999999",
+            "9999b93f9a9999999999c9bf000000000000e03f00000000000000000000000000000000333333333333e33f9a999999",
+            "9999e93f0000000000000000000000000000e03f000000000000f03f000000000000f83f000000000000004000000000",
+            "0000044000000000000008400000000000000c4000000000000010400000000000001240000000000000144000000000",
+            "0000164000000000000018400000000000001a400000000000001c400000000000001e40000000000000204000000000",
+            "000021400000000000002240000000000000234000000000000024400000000000002540000000000000264000000000",
+            "00002740000000000000284000000000000029400000000000002a400000000000002b400000000000002c4000000000",
+            "00002d400000000000002e400000000000002f4000000000000030400000000000803040000000000000314000000000",
+            "008031407b14ae47e17a843f7b14ae47e17a943fb81e85eb51b89ebf9a9999999999b93f00000000000000009a999999",
+            "9999c9bf0000000000000080000000000000f0bf00000000000000c000000000000008c000000000000010c000000000",
+            "000014c000000000000018c00000000000001cc000000000000020c000000000000022c000000000000024c000000000",
+            "000026c000000000000028c00000000000002ac00000000000002cc00000000000002ec000000000000030c000000000",
+            "000031c000000000000032c000000000000033c000000000000034c000000000000035c000000000000036c000000000",
+            "000037c000000000000038c000000000000039c00000000000003ac00000000000003bc00000000000003cc000000000",
+            "00003dc00000000000003ec00000000000003fc000000000000040c000000000008040c000000000000041c000000000",
+            "008041c0",
+        );
+        assert_eq!(m.data, bytes(expected));
+    }
+
+    #[test]
+    fn a_planar_estimate_is_rosbags_bytes() {
+        let covariance: Vec<f64> = (0..36).map(f64::from).collect();
+        let json = serde_json::json!({
+            "state": {"translation_m": [0.001, -0.002], "rotation_rad": 0.05, "velocity_m_per_s": [0.01, 0.0],
+                      "angular_velocity_rad_per_s": -0.5},
+            "covariance": covariance,
+        });
+        let m = cdr("slidetrack.PlanarEstimate", 1_000_000_002, &json.to_string());
+        assert_eq!(m.ros_type, "slidetrack_msgs/msg/PlanarEstimate");
+        let expected = concat!(
+            "0001000001000000020000000100000000000000fca9f1d24d62503ffca9f1d24d6260bf9a9999999999a93f7b14ae47",
+            "e17a843f0000000000000000000000000000e0bf0000000000000000000000000000f03f000000000000004000000000",
+            "000008400000000000001040000000000000144000000000000018400000000000001c40000000000000204000000000",
+            "000022400000000000002440000000000000264000000000000028400000000000002a400000000000002c4000000000",
+            "00002e400000000000003040000000000000314000000000000032400000000000003340000000000000344000000000",
+            "0000354000000000000036400000000000003740000000000000384000000000000039400000000000003a4000000000",
+            "00003b400000000000003c400000000000003d400000000000003e400000000000003f40000000000000404000000000",
+            "0080404000000000000041400000000000804140",
+        );
+        assert_eq!(m.data, bytes(expected));
+    }
+
+    /// A covariance that is not 6 x 6 is the payload's error, not a short
+    /// `float64[36]` that would shift every later field.
+    #[test]
+    fn a_covariance_without_36_values_is_an_error() {
+        let json = r#"{"state":{"translation_m":[0,0],"rotation_rad":0,"velocity_m_per_s":[0,0],
+            "angular_velocity_rad_per_s":0},"covariance":[1.0,2.0]}"#;
+        let err = convert("slidetrack.PlanarEstimate", "/x", TimeNs(0), json.as_bytes()).unwrap_err();
+        assert!(err.to_string().contains("covariance: 2 values"), "{err}");
     }
 }

@@ -42,6 +42,13 @@ const DEFINITIONS: &[(&str, &str)] = &[
     ("geometry_msgs/msg/PoseStamped", "std_msgs/Header header\nPose pose\n"),
     ("geometry_msgs/msg/Twist", "Vector3 linear\nVector3 angular\n"),
     ("geometry_msgs/msg/TwistStamped", "std_msgs/Header header\nTwist twist\n"),
+    ("geometry_msgs/msg/PoseWithCovariance", "Pose pose\nfloat64[36] covariance\n"),
+    ("geometry_msgs/msg/TwistWithCovariance", "Twist twist\nfloat64[36] covariance\n"),
+    (
+        "nav_msgs/msg/Odometry",
+        "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/PoseWithCovariance pose\n\
+         geometry_msgs/TwistWithCovariance twist\n",
+    ),
     ("slidetrack_msgs/msg/TactileRaw", include_str!("../../ros2/slidetrack_msgs/msg/TactileRaw.msg")),
     (
         "slidetrack_msgs/msg/TactileSensorRaw",
@@ -53,6 +60,7 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "slidetrack_msgs/msg/SlidingEstimate",
         include_str!("../../ros2/slidetrack_msgs/msg/SlidingEstimate.msg"),
     ),
+    ("slidetrack_msgs/msg/PlanarEstimate", include_str!("../../ros2/slidetrack_msgs/msg/PlanarEstimate.msg")),
 ];
 
 /// The text of `name` (`pkg/msg/Type`).

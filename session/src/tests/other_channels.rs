@@ -8,6 +8,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 use slidetrack_core::DepthImage;
 
 use super::*;
+use crate::odometry::{MaskUkfOdometry, Odometry, RoftOdometry};
 use crate::vision_pose::{
     MaskUkfPose, MaskUkfTransform, MaskUkfVelocity, RoftPose, RoftTransform, RoftVelocity,
 };
@@ -28,6 +29,20 @@ fn velocity(k: f64) -> VelocityEstimate {
         frame_id: "camera".into(),
         linear_velocity_mps: [0.01 * k, 0.0, -0.02],
         angular_velocity_radps: [0.0, 0.1, 0.2 * k],
+    }
+}
+
+fn odometry(child: &str, k: f64) -> Odometry {
+    let covariance: Vec<f64> = (0..36).map(|i| if i % 7 == 0 { 1e-6 * k.max(1.0) } else { 0.0 }).collect();
+    Odometry {
+        frame_id: "camera".into(),
+        child_frame_id: child.into(),
+        position_m: [0.1 * k, -0.2, 0.6],
+        orientation: Quaternion { x: 0.0, y: 0.6, z: 0.0, w: 0.8 },
+        pose_covariance: covariance.clone(),
+        linear_velocity_in_child_mps: [0.01, 0.0, -0.02 * k],
+        angular_velocity_in_child_radps: [0.0, 0.1 * k, 0.2],
+        twist_covariance: covariance,
     }
 }
 
@@ -134,5 +149,7 @@ pub(super) fn log_other_channels(rec: &Recorder) {
         log_one(rec, t, RoftTransform(transform("object/roft", k + 1.0)));
         log_one(rec, t, MaskUkfVelocity(velocity(k)));
         log_one(rec, t, RoftVelocity(velocity(k + 1.0)));
+        log_one(rec, t, MaskUkfOdometry(odometry("object/maskukf", k)));
+        log_one(rec, t, RoftOdometry(odometry("object/roft", k + 1.0)));
     }
 }

@@ -73,7 +73,7 @@ fn corrupted_sessions_read_from_memory_never_panic_and_recover_only_what_was_wri
     let bytes = session_bytes(&dir);
     let intact = read_all(&bytes);
     let written: Vec<Key> = intact.messages.iter().map(key).collect();
-    assert_eq!(written.len() as u64, EveryChannel::new(20).message_count() + 2 * 29 + 1);
+    assert_eq!(written.len() as u64, EveryChannel::new(20).message_count() + 2 * 31 + 1);
     let info = intact.info.unwrap();
     assert_eq!((info.message_count, info.truncated), (written.len() as u64, false));
     assert_eq!(intact.channels.len(), channel_specs().len());
