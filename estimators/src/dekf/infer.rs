@@ -404,6 +404,59 @@ mod tests {
         let (y3, _) = forward(&p, &layout.feature, DMatrix::from_column_slice(6, 1, &z), 1, false);
         assert!((fast3.value(&z) - y3[(0, 0)]).abs() < 1e-5);
     }
+
+    /// One network reused over a walk of inputs whose ReLU patterns change
+    /// from step to step, value passes and passes with tangents
+    /// interleaved (they share the scratch of non-zero lists and slopes):
+    /// every result is the bits of a network built for that input alone,
+    /// and the batched forward's within rounding. Catches a list of
+    /// non-zero inputs (or slopes) kept from an earlier step or another
+    /// layer, or a list built from the value only where a tangent is not
+    /// zero (tanh, GELU).
+    #[test]
+    fn a_reused_network_equals_a_fresh_one_whatever_the_sparsity_before() {
+        for arch in crate::dekf::mlp::tests::architectures() {
+            let layout = Layout::with_architecture(6, &arch);
+            let p = layout.init(&mut rand::rngs::StdRng::seed_from_u64(5));
+            let (mut motion, mut feature) =
+                (FastNet::new(&p, &layout.motion), FastNet::new(&p, &layout.feature));
+            let mut patterns = std::collections::BTreeSet::new();
+            for k in 0..40 {
+                let t = k as f32;
+                // Large and small, both signs, and exact zeros now and then.
+                let x = [if k % 7 == 3 { 0.0 } else { 4.0 * (0.9 * t).sin() }, 3.0 * (0.37 * t).cos() - 1.0];
+                let z: Vec<f32> = (0..6)
+                    .map(|c| if (k + c) % 5 == 0 { 0.0 } else { (t * 0.5 + c as f32).sin() * 3.0 })
+                    .collect();
+                let got = motion.value_and_gradient(x);
+                patterns.insert(motion.slopes.iter().map(|s| *s > 0.0).collect::<Vec<_>>());
+                let got_value = feature.value(&z);
+                assert_eq!(got, FastNet::new(&p, &layout.motion).value_and_gradient(x), "{arch:?} step {k}");
+                assert_eq!(got_value, FastNet::new(&p, &layout.feature).value(&z), "{arch:?} step {k}");
+                let mut m = DMatrix::<f32>::zeros(2, 3);
+                m.column_mut(0).copy_from_slice(&x);
+                m[(0, 1)] = 1.0;
+                m[(1, 2)] = 1.0;
+                let (y, _) = forward(&p, &layout.motion, m, 3, false);
+                for (c, f) in [got.0, got.1[0], got.1[1]].into_iter().enumerate() {
+                    let r = y[(0, c)];
+                    assert!(
+                        (f - r).abs() < 1e-5 * (1.0 + r.abs()),
+                        "{arch:?} step {k} column {c}: {f} vs {r}"
+                    );
+                }
+                let (y3, _) = forward(&p, &layout.feature, DMatrix::from_column_slice(6, 1, &z), 1, false);
+                let r = y3[(0, 0)];
+                assert!(
+                    (got_value - r).abs() < 1e-5 * (1.0 + r.abs()),
+                    "{arch:?} step {k}: {got_value} vs {r}"
+                );
+            }
+            if arch.activation == Activation::Relu {
+                assert!(patterns.len() >= 10, "{arch:?}: only {} ReLU patterns in the walk", patterns.len());
+            }
+        }
+    }
 }
 
 #[cfg(test)]
