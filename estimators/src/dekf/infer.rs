@@ -38,19 +38,56 @@ use kernels::{
     Isa, MulAdd, PORTABLE_BLOCK, PORTABLE_TANGENT_BLOCK, Separate, dot, mat_vec, mat_vec_tangents,
 };
 
+/// Floats a cache line holds (64 bytes).
+const LINE_FLOATS: usize = 16;
+
+/// A copy of some floats that starts on a 64-byte boundary (a cache line),
+/// so that a column of 64 weights is four lines and no 32-byte load spans
+/// two of them (the allocator aligns a `Vec<f32>` to 16 bytes only). The
+/// floats sit at `start` in a buffer up to 15 floats longer; a clone aligns
+/// its own buffer.
+#[derive(Debug)]
+struct LineAligned {
+    buffer: Vec<f32>,
+    start: usize,
+    len: usize,
+}
+
+impl LineAligned {
+    fn new(floats: &[f32]) -> LineAligned {
+        let mut buffer = vec![0.0f32; floats.len() + LINE_FLOATS - 1];
+        // The buffer is never grown, so its address stays the same.
+        let misaligned = buffer.as_ptr().addr() % (4 * LINE_FLOATS) / 4;
+        let start = (LINE_FLOATS - misaligned) % LINE_FLOATS;
+        buffer[start..start + floats.len()].copy_from_slice(floats);
+        LineAligned { buffer, start, len: floats.len() }
+    }
+
+    fn get(&self) -> &[f32] {
+        &self.buffer[self.start..self.start + self.len]
+    }
+}
+
+impl Clone for LineAligned {
+    fn clone(&self) -> LineAligned {
+        LineAligned::new(self.get())
+    }
+}
+
 /// A linear layer with `width` outputs: its weights column by column (one
-/// column per input), as the parameters store them.
+/// column per input), as the parameters store them, from a cache line's
+/// start.
 #[derive(Clone, Debug)]
 struct Wide {
     /// `inp` columns of `width` weights, one after the other.
-    columns: Vec<f32>,
+    columns: LineAligned,
     bias: Vec<f32>,
 }
 
 impl Wide {
     fn new(p: &[f32], l: &LinearAt) -> Wide {
         Wide {
-            columns: p[l.weight..l.weight + l.out * l.inp].to_vec(),
+            columns: LineAligned::new(&p[l.weight..l.weight + l.out * l.inp]),
             bias: p[l.bias..l.bias + l.out].to_vec(),
         }
     }
@@ -63,7 +100,7 @@ impl Wide {
     /// `y = W x + b`; `nz` is scratch as long as `x`.
     #[inline(always)]
     fn forward<M: MulAdd, const B: usize>(&self, isa: M, x: &[f32], y: &mut [f32], nz: &mut [u32]) {
-        mat_vec::<M, B>(isa, &self.columns, Some(&self.bias), x, y, nz);
+        mat_vec::<M, B>(isa, self.columns.get(), Some(&self.bias), x, y, nz);
     }
 
     /// `y = W x + b` and the tangents `W t`, for `x` and its two tangents
@@ -76,7 +113,7 @@ impl Wide {
         y: [&mut [f32]; 3],
         nz: &mut [u32],
     ) {
-        mat_vec_tangents::<M, B>(isa, &self.columns, &self.bias, x, y, nz);
+        mat_vec_tangents::<M, B>(isa, self.columns.get(), &self.bias, x, y, nz);
     }
 }
 
