@@ -442,6 +442,24 @@ mod tests {
         assert!((fast3.value(&z) - y3[(0, 0)]).abs() < 1e-5);
     }
 
+    /// The weights' copy starts on a 64-byte boundary and holds the floats
+    /// given, for every length and in a clone (whose buffer is a new
+    /// allocation); catches an offset computed in bytes instead of floats,
+    /// or a clone that copies the old offset into a differently aligned
+    /// buffer.
+    #[test]
+    fn line_aligned_weights_start_on_a_cache_line_with_the_same_floats() {
+        for len in [0, 1, 15, 16, 17, 64 * 64] {
+            let floats: Vec<f32> = (0..len).map(|k| k as f32 * 0.5 - 3.0).collect();
+            let a = LineAligned::new(&floats);
+            let clones: Vec<LineAligned> = (0..8).map(|_| a.clone()).collect();
+            for x in std::iter::once(&a).chain(&clones) {
+                assert_eq!(x.get(), &floats[..], "length {len}");
+                assert_eq!(x.get().as_ptr().addr() % 64, 0, "length {len}");
+            }
+        }
+    }
+
     /// One network reused over a walk of inputs whose ReLU patterns change
     /// from step to step, value passes and passes with tangents
     /// interleaved (they share the scratch of non-zero lists and slopes):
