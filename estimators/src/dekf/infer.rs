@@ -38,19 +38,56 @@ use kernels::{
     Isa, MulAdd, PORTABLE_BLOCK, PORTABLE_TANGENT_BLOCK, Separate, dot, mat_vec, mat_vec_tangents,
 };
 
+/// Floats a cache line holds (64 bytes).
+const LINE_FLOATS: usize = 16;
+
+/// A copy of some floats that starts on a 64-byte boundary (a cache line),
+/// so that a column of 64 weights is four lines and no 32-byte load spans
+/// two of them (the allocator aligns a `Vec<f32>` to 16 bytes only). The
+/// floats sit at `start` in a buffer up to 15 floats longer; a clone aligns
+/// its own buffer.
+#[derive(Debug)]
+struct LineAligned {
+    buffer: Vec<f32>,
+    start: usize,
+    len: usize,
+}
+
+impl LineAligned {
+    fn new(floats: &[f32]) -> LineAligned {
+        let mut buffer = vec![0.0f32; floats.len() + LINE_FLOATS - 1];
+        // The buffer is never grown, so its address stays the same.
+        let misaligned = buffer.as_ptr().addr() % (4 * LINE_FLOATS) / 4;
+        let start = (LINE_FLOATS - misaligned) % LINE_FLOATS;
+        buffer[start..start + floats.len()].copy_from_slice(floats);
+        LineAligned { buffer, start, len: floats.len() }
+    }
+
+    fn get(&self) -> &[f32] {
+        &self.buffer[self.start..self.start + self.len]
+    }
+}
+
+impl Clone for LineAligned {
+    fn clone(&self) -> LineAligned {
+        LineAligned::new(self.get())
+    }
+}
+
 /// A linear layer with `width` outputs: its weights column by column (one
-/// column per input), as the parameters store them.
+/// column per input), as the parameters store them, from a cache line's
+/// start.
 #[derive(Clone, Debug)]
 struct Wide {
     /// `inp` columns of `width` weights, one after the other.
-    columns: Vec<f32>,
+    columns: LineAligned,
     bias: Vec<f32>,
 }
 
 impl Wide {
     fn new(p: &[f32], l: &LinearAt) -> Wide {
         Wide {
-            columns: p[l.weight..l.weight + l.out * l.inp].to_vec(),
+            columns: LineAligned::new(&p[l.weight..l.weight + l.out * l.inp]),
             bias: p[l.bias..l.bias + l.out].to_vec(),
         }
     }
@@ -63,7 +100,7 @@ impl Wide {
     /// `y = W x + b`; `nz` is scratch as long as `x`.
     #[inline(always)]
     fn forward<M: MulAdd, const B: usize>(&self, isa: M, x: &[f32], y: &mut [f32], nz: &mut [u32]) {
-        mat_vec::<M, B>(isa, &self.columns, Some(&self.bias), x, y, nz);
+        mat_vec::<M, B>(isa, self.columns.get(), Some(&self.bias), x, y, nz);
     }
 
     /// `y = W x + b` and the tangents `W t`, for `x` and its two tangents
@@ -76,7 +113,7 @@ impl Wide {
         y: [&mut [f32]; 3],
         nz: &mut [u32],
     ) {
-        mat_vec_tangents::<M, B>(isa, &self.columns, &self.bias, x, y, nz);
+        mat_vec_tangents::<M, B>(isa, self.columns.get(), &self.bias, x, y, nz);
     }
 }
 
@@ -403,6 +440,77 @@ mod tests {
         let z = [0.1f32, -2.0, 0.3, 1.5, -0.2, 0.9];
         let (y3, _) = forward(&p, &layout.feature, DMatrix::from_column_slice(6, 1, &z), 1, false);
         assert!((fast3.value(&z) - y3[(0, 0)]).abs() < 1e-5);
+    }
+
+    /// The weights' copy starts on a 64-byte boundary and holds the floats
+    /// given, for every length and in a clone (whose buffer is a new
+    /// allocation); catches an offset computed in bytes instead of floats,
+    /// or a clone that copies the old offset into a differently aligned
+    /// buffer.
+    #[test]
+    fn line_aligned_weights_start_on_a_cache_line_with_the_same_floats() {
+        for len in [0, 1, 15, 16, 17, 64 * 64] {
+            let floats: Vec<f32> = (0..len).map(|k| k as f32 * 0.5 - 3.0).collect();
+            let a = LineAligned::new(&floats);
+            let clones: Vec<LineAligned> = (0..8).map(|_| a.clone()).collect();
+            for x in std::iter::once(&a).chain(&clones) {
+                assert_eq!(x.get(), &floats[..], "length {len}");
+                assert_eq!(x.get().as_ptr().addr() % 64, 0, "length {len}");
+            }
+        }
+    }
+
+    /// One network reused over a walk of inputs whose ReLU patterns change
+    /// from step to step, value passes and passes with tangents
+    /// interleaved (they share the scratch of non-zero lists and slopes):
+    /// every result is the bits of a network built for that input alone,
+    /// and the batched forward's within rounding. Catches a list of
+    /// non-zero inputs (or slopes) kept from an earlier step or another
+    /// layer, or a list built from the value only where a tangent is not
+    /// zero (tanh, GELU).
+    #[test]
+    fn a_reused_network_equals_a_fresh_one_whatever_the_sparsity_before() {
+        for arch in crate::dekf::mlp::tests::architectures() {
+            let layout = Layout::with_architecture(6, &arch);
+            let p = layout.init(&mut rand::rngs::StdRng::seed_from_u64(5));
+            let (mut motion, mut feature) =
+                (FastNet::new(&p, &layout.motion), FastNet::new(&p, &layout.feature));
+            let mut patterns = std::collections::BTreeSet::new();
+            for k in 0..40 {
+                let t = k as f32;
+                // Large and small, both signs, and exact zeros now and then.
+                let x = [if k % 7 == 3 { 0.0 } else { 4.0 * (0.9 * t).sin() }, 3.0 * (0.37 * t).cos() - 1.0];
+                let z: Vec<f32> = (0..6)
+                    .map(|c| if (k + c) % 5 == 0 { 0.0 } else { (t * 0.5 + c as f32).sin() * 3.0 })
+                    .collect();
+                let got = motion.value_and_gradient(x);
+                patterns.insert(motion.slopes.iter().map(|s| *s > 0.0).collect::<Vec<_>>());
+                let got_value = feature.value(&z);
+                assert_eq!(got, FastNet::new(&p, &layout.motion).value_and_gradient(x), "{arch:?} step {k}");
+                assert_eq!(got_value, FastNet::new(&p, &layout.feature).value(&z), "{arch:?} step {k}");
+                let mut m = DMatrix::<f32>::zeros(2, 3);
+                m.column_mut(0).copy_from_slice(&x);
+                m[(0, 1)] = 1.0;
+                m[(1, 2)] = 1.0;
+                let (y, _) = forward(&p, &layout.motion, m, 3, false);
+                for (c, f) in [got.0, got.1[0], got.1[1]].into_iter().enumerate() {
+                    let r = y[(0, c)];
+                    assert!(
+                        (f - r).abs() < 1e-5 * (1.0 + r.abs()),
+                        "{arch:?} step {k} column {c}: {f} vs {r}"
+                    );
+                }
+                let (y3, _) = forward(&p, &layout.feature, DMatrix::from_column_slice(6, 1, &z), 1, false);
+                let r = y3[(0, 0)];
+                assert!(
+                    (got_value - r).abs() < 1e-5 * (1.0 + r.abs()),
+                    "{arch:?} step {k}: {got_value} vs {r}"
+                );
+            }
+            if arch.activation == Activation::Relu {
+                assert!(patterns.len() >= 10, "{arch:?}: only {} ReLU patterns in the walk", patterns.len());
+            }
+        }
     }
 }
 
