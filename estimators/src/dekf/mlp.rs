@@ -37,11 +37,15 @@ fn blas_sized(dims: &[usize]) -> bool {
     dims.iter().all(|&d| d > 5)
 }
 
-/// Products with at most this many columns (parts of up to 4 windows: 3
+/// Products with at most this many columns (parts of 1 or 2 windows: 3
 /// columns each through the networks with tangents, 1 through the feature
 /// network) go to the register-blocked kernels of [`thin`]; wider ones to
-/// nalgebra (`matrixmultiply`), whose packing pays off there.
-pub const THIN_COLUMNS: usize = 12;
+/// nalgebra (`matrixmultiply`), whose packing pays off there. Per column of
+/// a 64 x 64 layer (`time_the_thin_products`, release, AVX2+FMA): `W x`
+/// 160 ns against 410-540 (nalgebra, 1-3 columns), 160 at 12 columns; `W^T dy`
+/// 440 against 1200 (1-3) and 530 (6), 280 at 12 for nalgebra; `dy x^T`
+/// 115 against 340 (3), the same at 12.
+pub const THIN_COLUMNS: usize = 6;
 
 /// The shapes of `l` applied to `n` columns, when they are thin.
 fn thin_dims(l: &LinearAt, n: usize) -> Option<Dims> {

@@ -1,13 +1,16 @@
-//! The training path's matrix products when a part of a batch is thin
-//! (1-4 windows: 1-12 columns), register-blocked and compiled twice: for
-//! AVX2 with fused multiply-adds where the CPU has them (chosen at run time
-//! through `pulp`'s safe dispatch) and for the build's baseline elsewhere.
+//! The training path's matrix products when a part of a batch is thin (at
+//! most `mlp::THIN_COLUMNS` columns: parts of 1 or 2 windows),
+//! register-blocked and compiled twice: for AVX2 with fused multiply-adds
+//! where the CPU has them (chosen at run time through `pulp`'s safe
+//! dispatch) and for the build's baseline elsewhere.
 //!
 //! nalgebra hands a product with a dimension of 5 or less to a plain loop
 //! without FMA, and `matrixmultiply` packs both operands on every call,
 //! which a product of 64 x 64 weights with 3 columns cannot repay; these
 //! kernels read each weight once per group of [`COLS`] columns and keep the
-//! sums in registers.
+//! sums in registers. `W^T dy` takes dot products along the weight's
+//! columns (a copy of `W^T` per call cost 2.7 us for 64 x 64, more than
+//! the product).
 //!
 //! Matrices are column-major slices: a weight `W` of `out x inp` is
 //! `inp` columns of `out`, an activation `x` of `inp x n` is `n` columns of
@@ -16,10 +19,6 @@
 
 /// Columns computed together: a sample's value and its two tangents.
 const COLS: usize = 3;
-/// Lanes of the dot products of [`mul_transposed`] (one AVX2 register).
-const LANES: usize = 8;
-/// Weight columns whose dot products [`mul_transposed`] computes together.
-const DOTS: usize = 4;
 
 /// How a multiply-add is computed: fused (one rounding) inside the AVX2+FMA
 /// dispatch, a product and a sum otherwise (a fused one without hardware
@@ -96,7 +95,7 @@ pub(super) fn mul(w: &[f32], d: Dims, x: &[f32], y: &mut [f32]) {
 /// `dx = W^T dy` (`dy` is `out x n`, `dx` is `inp x n`, overwritten).
 pub(super) fn mul_transposed(w: &[f32], d: Dims, dy: &[f32], dx: &mut [f32]) {
     check(w, d, dx, dy);
-    dispatch!(mul_transposed_with, 0, 0, w, d, dy, dx)
+    dispatch!(mul_transposed_with, V3_ROWS, PORTABLE_ROWS, w, d, dy, dx)
 }
 
 /// `gw += dy x^T` (`gw` is `out x inp`, `dy` is `out x n`, `x` is `inp x n`).
@@ -186,58 +185,43 @@ fn mul_cols<M: MulAdd, const B: usize, const J: usize>(w: &[f32], out: usize, x:
     }
 }
 
+/// `dx = W^T dy`: for every weight column `k` and each of `J` columns of
+/// `dy`, the dot product `W[:, k] . dy[:, j]` in eight lanes, the lanes
+/// added in a fixed tree, then the rows past the last eight in order.
 #[inline(always)]
 fn mul_transposed_with<M: MulAdd, const B: usize>(w: &[f32], d: Dims, dy: &[f32], dx: &mut [f32]) {
     let Dims { out, inp, n } = d;
-    by_column_groups!(n, |j, J| {
-        let (dy, dx) = (&dy[j * out..(j + J) * out], &mut dx[j * inp..(j + J) * inp]);
-        let mut k = 0;
-        while k + DOTS <= inp {
-            dots::<M, J, DOTS>(w, out, inp, k, dy, dx);
-            k += DOTS;
-        }
-        while k < inp {
-            dots::<M, J, 1>(w, out, inp, k, dy, dx);
-            k += 1;
-        }
-    });
+    by_column_groups!(n, |j, J| dots::<M, J>(
+        w,
+        out,
+        &dy[j * out..(j + J) * out],
+        &mut dx[j * inp..(j + J) * inp]
+    ));
 }
 
-/// `dx[k + i, j] = W[:, k + i] . dy[:, j]` for `i < K`, `j < J`: `K x J`
-/// dot products over [`LANES`] lanes each, the lanes added in a fixed
-/// tree, then the rows past the last whole group of lanes in order.
 #[inline(always)]
-fn dots<M: MulAdd, const J: usize, const K: usize>(
-    w: &[f32],
-    out: usize,
-    inp: usize,
-    k: usize,
-    dy: &[f32],
-    dx: &mut [f32],
-) {
-    let mut acc = [[[0.0f32; LANES]; J]; K];
-    let whole = out / LANES * LANES;
-    for o in (0..whole).step_by(LANES) {
-        let mut d = [[0.0f32; LANES]; J];
-        for (j, dj) in d.iter_mut().enumerate() {
-            dj.copy_from_slice(&dy[j * out + o..j * out + o + LANES]);
-        }
-        for (i, ai) in acc.iter_mut().enumerate() {
-            let c: &[f32; LANES] = w[(k + i) * out + o..(k + i) * out + o + LANES].try_into().expect("lanes");
-            for (aij, dj) in ai.iter_mut().zip(&d) {
-                for l in 0..LANES {
-                    aij[l] = M::mul_add(c[l], dj[l], aij[l]);
+fn dots<M: MulAdd, const J: usize>(w: &[f32], out: usize, dy: &[f32], dx: &mut [f32]) {
+    let inp = dx.len() / J;
+    // (Two sums per column, even and odd groups of eight rows, measured
+    // slower: the sums no longer stayed in registers.)
+    let whole = out / 8 * 8;
+    for (k, c) in w.chunks_exact(out).enumerate() {
+        let mut acc = [[0.0f32; 8]; J];
+        for o in (0..whole).step_by(8) {
+            let ck: &[f32; 8] = c[o..o + 8].try_into().expect("eight");
+            for (j, a) in acc.iter_mut().enumerate() {
+                let dj: &[f32; 8] = dy[j * out + o..j * out + o + 8].try_into().expect("eight");
+                for l in 0..8 {
+                    a[l] = M::mul_add(ck[l], dj[l], a[l]);
                 }
             }
         }
-    }
-    for (i, ai) in acc.iter().enumerate() {
-        for (j, a) in ai.iter().enumerate() {
+        for (j, a) in acc.iter().enumerate() {
             let mut s = ((a[0] + a[4]) + (a[2] + a[6])) + ((a[1] + a[5]) + (a[3] + a[7]));
             for r in whole..out {
-                s = M::mul_add(w[(k + i) * out + r], dy[j * out + r], s);
+                s = M::mul_add(c[r], dy[j * out + r], s);
             }
-            dx[j * inp + k + i] = s;
+            dx[j * inp + k] = s;
         }
     }
 }
@@ -357,6 +341,76 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod timing {
+    use super::*;
+    use nalgebra::DMatrix;
+    use std::time::Instant;
+
+    /// The least time of `reps` calls of `f`, in nanoseconds per call.
+    fn least_ns(reps: usize, mut f: impl FnMut()) -> f64 {
+        let mut best = f64::INFINITY;
+        for _ in 0..20 {
+            let t = Instant::now();
+            for _ in 0..reps {
+                f();
+            }
+            best = best.min(t.elapsed().as_secs_f64() * 1e9 / reps as f64);
+        }
+        best
+    }
+
+    /// The three products of a 64 x 64 layer with these kernels and with
+    /// nalgebra, per column (`cargo test --release -p
+    /// slidetrack-estimators --lib time_the_thin_products -- --ignored
+    /// --nocapture`).
+    #[test]
+    #[ignore = "a timing, not a check"]
+    fn time_the_thin_products() {
+        let (out, inp) = (64, 64);
+        for n in [1, 3, 6, 12, 16, 48] {
+            let d = Dims { out, inp, n };
+            let w = DMatrix::<f32>::from_fn(out, inp, |r, c| ((r * 7 + c * 3) % 11) as f32 * 0.1 - 0.5);
+            let x = DMatrix::<f32>::from_fn(inp, n, |r, c| ((r * 5 + c) % 13) as f32 * 0.1 - 0.6);
+            let dy = DMatrix::<f32>::from_fn(out, n, |r, c| ((r * 3 + c) % 7) as f32 * 0.1 - 0.3);
+            let mut y = DMatrix::<f32>::zeros(out, n);
+            let mut dx = DMatrix::<f32>::zeros(inp, n);
+            let mut gw = DMatrix::<f32>::zeros(out, inp);
+            let reps = 20_000 / n;
+            let thin = [
+                least_ns(reps, || mul(w.as_slice(), d, x.as_slice(), y.as_mut_slice())),
+                least_ns(reps, || mul_transposed(w.as_slice(), d, dy.as_slice(), dx.as_mut_slice())),
+                least_ns(reps, || add_outer(gw.as_mut_slice(), d, dy.as_slice(), x.as_slice())),
+            ];
+            let xt = x.transpose();
+            let nal = [
+                least_ns(reps, || y.gemm(1.0, &w, &x, 0.0)),
+                least_ns(reps, || {
+                    // As `mlp` does: `W^T` as a strided view when every
+                    // dimension exceeds 5, `gemm_tr` otherwise.
+                    if n > 5 {
+                        let wt = nalgebra::MatrixView::<
+                            f32,
+                            nalgebra::Dyn,
+                            nalgebra::Dyn,
+                            nalgebra::Dyn,
+                            nalgebra::Dyn,
+                        >::from_slice_with_strides(
+                            w.as_slice(), inp, out, out, 1
+                        );
+                        dx.gemm(1.0, &wt, &dy, 0.0);
+                    } else {
+                        dx.gemm_tr(1.0, &w, &dy, 0.0);
+                    }
+                }),
+                least_ns(reps, || gw.gemm(1.0, &dy, &xt, 1.0)),
+            ];
+            let per = |v: [f64; 3]| v.map(|t| format!("{:.0}", t / n as f64)).join(" ");
+            println!("n {n:>2}: ns per column W x, W^T dy, dy x^T: thin {} nalgebra {}", per(thin), per(nal));
         }
     }
 }
