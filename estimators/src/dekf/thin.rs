@@ -306,17 +306,17 @@ mod tests {
                 let mut y = vec![f32::NAN; out * n];
                 let mut dx = vec![f32::NAN; inp * n];
                 let mut gw = g0.clone();
-                let mut runs: Vec<(&str, Vec<f32>, Vec<f32>, Vec<f32>)> = Vec::new();
+                let mut runs: Vec<(&str, [Vec<f32>; 3])> = Vec::new();
                 mul_with::<Separate, PORTABLE_ROWS>(&w, d, &x, &mut y);
                 mul_transposed_with::<Separate, PORTABLE_ROWS>(&w, d, &dy, &mut dx);
                 add_outer_with::<Separate, { PORTABLE_ROWS / 2 }>(&mut gw, d, &dy, &x);
-                runs.push(("portable", y.clone(), dx.clone(), gw.clone()));
+                runs.push(("portable", [y.clone(), dx.clone(), gw.clone()]));
                 let mut gw = g0.clone();
                 mul(&w, d, &x, &mut y);
                 mul_transposed(&w, d, &dy, &mut dx);
                 add_outer(&mut gw, d, &dy, &x);
-                runs.push(("dispatched", y, dx, gw));
-                for (what, y, dx, gw) in &runs {
+                runs.push(("dispatched", [y, dx, gw]));
+                for (what, [y, dx, gw]) in &runs {
                     for j in 0..n {
                         for r in 0..out {
                             let want: f64 =
