@@ -15,6 +15,7 @@ pub mod multi;
 pub mod params;
 mod parts;
 mod state;
+mod thin;
 mod train;
 
 pub use batch::{BatchGrad, Sequence, Window};

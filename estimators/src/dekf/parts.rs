@@ -13,15 +13,15 @@ use super::model::DekfModel;
 
 /// Windows per part of a batch's gradient (see [`super::TrainConfig::part_windows`]).
 ///
-/// 16 keeps the matrix products 16 windows wide: thinner parts turn them
-/// into matrix-vector products, which cost about 1.7x (4 windows), 2.3x
-/// (2) and 4.3x (1) as much on one thread (docs/dekf.md), so on a machine
-/// with few cores the default stays fast, and a batch of 32 keeps 2
-/// threads busy. On many cores, `train --part-windows 2` keeps 16 threads
-/// busy at batch 32; the part size is written into the model (it changes
-/// the sums' rounding), never taken from the thread count. Compare with
-/// `slidetrack bench --what dekf-training --part-windows 16,2,1,4`.
-pub const DEFAULT_PART_WINDOWS: usize = 16;
+/// 4: a batch of 32 keeps 8 threads busy, and on one thread a part of 4
+/// costs about 1.2x as much per window as a part of 16 (measured with the
+/// thin kernels of `thin.rs`: 1.23x; parts of 2 1.5x, of 1 1.9x; before
+/// them 1.4x, 1.9x and 2.7x; docs/dekf.md). On 16 cores, `train
+/// --part-windows 2` keeps 16 threads busy at batch 32 for 1.5x the work;
+/// the part size is written into the model (it changes the sums'
+/// rounding), never taken from the thread count. Compare with `slidetrack
+/// bench --what dekf-training --part-windows 16,4,2,1`.
+pub const DEFAULT_PART_WINDOWS: usize = 4;
 
 /// Adds `b` into `a`: the squared errors and state counts, and the
 /// gradient element by element (`a + b` in that order, so that a fixed
