@@ -37,3 +37,24 @@ impl ChannelSpec {
         ChannelSpec { topic: T::TOPIC, schema_name: T::SCHEMA_NAME, schema: T::json_schema() }
     }
 }
+
+/// Declares a channel type wrapping a message type with its own topic
+/// (`$name(pub $inner)`, serde-transparent). The caller's module must have
+/// `Serialize`, `Deserialize`, `Value` and `ChannelMessage` in scope.
+macro_rules! channel {
+    ($(#[$doc:meta])* $name:ident($inner:ty), $topic:literal, $schema_name:literal, $schema:expr) => {
+        $(#[$doc])*
+        #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+        #[serde(transparent)]
+        pub struct $name(pub $inner);
+
+        impl ChannelMessage for $name {
+            const TOPIC: &'static str = $topic;
+            const SCHEMA_NAME: &'static str = $schema_name;
+            fn json_schema() -> Value {
+                $schema
+            }
+        }
+    };
+}
+pub(crate) use channel;

@@ -12,10 +12,9 @@
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::channel::ChannelMessage;
+use super::channel::{ChannelMessage, channel};
 use super::schema::derived;
 use super::vision::Quaternion;
-use super::vision_pose::channel;
 
 /// A pose and twist with covariances (`slidetrack.Odometry`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]

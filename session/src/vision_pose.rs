@@ -14,7 +14,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use serde_json::Value;
 use slidetrack_core::{DepthImage, ObjectTruth as SimObjectTruth, TimeNs};
 
-use super::channel::{ChannelMessage, ChannelSpec};
+use super::channel::{ChannelMessage, ChannelSpec, channel};
 use super::schema::{Foxglove, derived};
 use super::vision::{CameraCalibration, CompressedImage, FoxgloveTime, Quaternion};
 
@@ -254,25 +254,6 @@ impl ChannelMessage for ObjectTruth {
         derived::<Self>(Self::SCHEMA_NAME)
     }
 }
-
-/// Declares a channel type wrapping a message type with its own topic.
-macro_rules! channel {
-    ($(#[$doc:meta])* $name:ident($inner:ty), $topic:literal, $schema_name:literal, $schema:expr) => {
-        $(#[$doc])*
-        #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-        #[serde(transparent)]
-        pub struct $name(pub $inner);
-
-        impl ChannelMessage for $name {
-            const TOPIC: &'static str = $topic;
-            const SCHEMA_NAME: &'static str = $schema_name;
-            fn json_schema() -> Value {
-                $schema
-            }
-        }
-    };
-}
-pub(crate) use channel;
 
 channel!(
     /// `/rgbd/color`: colour frames of the RGB-D camera (JPEG).

@@ -10,7 +10,8 @@ use slidetrack_core::{CameraIntrinsics, RgbdFrame, TimeNs};
 use slidetrack_estimators::maskukf::state as maskukf_state;
 use slidetrack_estimators::maskukf::{CloudInput, MaskUkf, MaskUkfConfig, MeasurementUsed, ObjectPoints};
 use slidetrack_estimators::metrics::{position_error_m, rotation_error_deg};
-use slidetrack_estimators::orientation::{OdometryCovariance, PoseVelocity, odometry_covariance};
+use slidetrack_estimators::orientation::PoseVelocity;
+use slidetrack_estimators::orientation::odometry::{OdometryCovariance, odometry_covariance};
 use slidetrack_estimators::roft::pose as roft_pose;
 use slidetrack_estimators::roft::{Mask, PoseUse, Roft, RoftConfig, RoftInput};
 

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::Isometry3;
 use slidetrack_core::{CameraIntrinsics, EncodedImage, ObjectTruth as SimObjectTruth, RgbdFrame, TimeNs};
-use slidetrack_estimators::orientation::{OdometryCovariance, twist_in_object};
+use slidetrack_estimators::orientation::odometry::{OdometryCovariance, twist_in_object};
 use slidetrack_estimators::roft::Mask;
 use slidetrack_session::odometry::{MaskUkfOdometry, Odometry, RoftOdometry};
 use slidetrack_session::vision_pose::{

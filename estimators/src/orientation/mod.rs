@@ -9,7 +9,6 @@ pub mod pose;
 pub mod quaternion;
 pub mod symmetry;
 
-pub use odometry::{OdometryCovariance, odometry_covariance, twist_in_object};
 pub use pose::PoseVelocity;
 pub use symmetry::{Symmetry, rotation_error_modulo_symmetry_deg};
 
