@@ -13,15 +13,16 @@ use super::model::DekfModel;
 
 /// Windows per part of a batch's gradient (see [`super::TrainConfig::part_windows`]).
 ///
-/// 4: a batch of 32 keeps 8 threads busy, and on one thread a part of 4
-/// costs about 1.2x as much per window as a part of 16 (measured with the
-/// thin kernels of `thin.rs`: 1.23x; parts of 2 1.5x, of 1 1.9x; before
-/// them 1.4x, 1.9x and 2.7x; docs/dekf.md). On 16 cores, `train
-/// --part-windows 2` keeps 16 threads busy at batch 32 for 1.5x the work;
-/// the part size is written into the model (it changes the sums'
-/// rounding), never taken from the thread count. Compare with `slidetrack
-/// bench --what dekf-training --part-windows 16,4,2,1`.
-pub const DEFAULT_PART_WINDOWS: usize = 4;
+/// 16 keeps the matrix products 16 windows wide, where they are cheapest
+/// per window, and keeps the models trained before the thin kernels: a
+/// batch of 32 keeps 2 threads busy. With the thin kernels of `thin.rs`,
+/// thinner parts cost per window, on one thread, 1.23x (4 windows), 1.51x
+/// (2) and 1.95x (1) as much (docs/dekf.md); on many cores `train
+/// --part-windows 2` keeps 16 threads busy at batch 32. The part size is
+/// written into the model (it changes the sums' rounding), never taken
+/// from the thread count. Compare with `slidetrack bench --what
+/// dekf-training --part-windows 16,4,2,1`.
+pub const DEFAULT_PART_WINDOWS: usize = 16;
 
 /// Adds `b` into `a`: the squared errors and state counts, and the
 /// gradient element by element (`a + b` in that order, so that a fixed
