@@ -16,18 +16,7 @@ pub const CYCLONE_LOOPBACK: &str = "<CycloneDDS><Domain id=\"any\"><General><Int
 /// The project's Python (`SLIDETRACK_PYTHON`, or target/pyenv) when it can
 /// import `cyclonedds`; `None` (the test then skips, saying why) otherwise.
 pub fn python_with_cyclonedds() -> Option<PathBuf> {
-    let python = std::env::var_os("SLIDETRACK_PYTHON")
-        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/pyenv/bin/python"), PathBuf::from);
-    if !python.exists() {
-        eprintln!("skipped: no {} (run scripts/setup.sh --test)", python.display());
-        return None;
-    }
-    let import = Command::new(&python).args(["-c", "import cyclonedds.domain"]).output();
-    if !import.is_ok_and(|o| o.status.success()) {
-        eprintln!("skipped: {} cannot import cyclonedds (run scripts/setup.sh --test)", python.display());
-        return None;
-    }
-    Some(python)
+    super::python_importing("cyclonedds.domain", "cyclonedds")
 }
 
 /// Starts `tests/python/SCRIPT DOMAIN` on Cyclone DDS over loopback and

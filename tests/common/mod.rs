@@ -63,8 +63,7 @@ pub fn collect(dir: &Path, object: &str, seed: u64, duration_s: f64, extra: &[&s
 /// Never the system's `python3`: a test must not pass only because a
 /// package happens to be installed by hand.
 pub fn python() -> PathBuf {
-    let python = std::env::var_os("SLIDETRACK_PYTHON")
-        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/pyenv/bin/python"), PathBuf::from);
+    let python = project_python_path();
     assert!(
         python.exists(),
         "{} does not exist: run `scripts/setup.sh --test` (or `scripts/test`), which makes the \
@@ -72,6 +71,29 @@ pub fn python() -> PathBuf {
         python.display()
     );
     python
+}
+
+/// Where the project's Python is: `SLIDETRACK_PYTHON`, else target/pyenv.
+fn project_python_path() -> PathBuf {
+    std::env::var_os("SLIDETRACK_PYTHON")
+        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/pyenv/bin/python"), PathBuf::from)
+}
+
+/// The project's Python when it exists and runs `import {import}`; `None`
+/// otherwise, after saying on stderr why the test skips (`package` names
+/// what is missing).
+pub fn python_importing(import: &str, package: &str) -> Option<PathBuf> {
+    let python = project_python_path();
+    if !python.exists() {
+        eprintln!("skipped: no {} (run scripts/setup.sh --test)", python.display());
+        return None;
+    }
+    let imported = Command::new(&python).args(["-c", &format!("import {import}")]).output();
+    if !imported.is_ok_and(|o| o.status.success()) {
+        eprintln!("skipped: {} cannot import {package} (run scripts/setup.sh --test)", python.display());
+        return None;
+    }
+    Some(python)
 }
 
 /// Three short simulated sessions without camera, and a tiny model trained on

@@ -8,18 +8,7 @@ use super::ok;
 /// The project's Python (`SLIDETRACK_PYTHON`, or target/pyenv) when it can
 /// import `rosbags`; `None` (the test then skips, saying why) otherwise.
 pub fn python_with_rosbags() -> Option<PathBuf> {
-    let python = std::env::var_os("SLIDETRACK_PYTHON")
-        .map_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("target/pyenv/bin/python"), PathBuf::from);
-    if !python.exists() {
-        eprintln!("skipped: no {} (run scripts/setup.sh --test)", python.display());
-        return None;
-    }
-    let import = std::process::Command::new(&python).args(["-c", "import rosbags, mcap"]).output();
-    if !import.is_ok_and(|o| o.status.success()) {
-        eprintln!("skipped: {} cannot import rosbags (run scripts/setup.sh --test)", python.display());
-        return None;
-    }
-    Some(python)
+    super::python_importing("rosbags, mcap", "rosbags")
 }
 
 /// Exports `session` to a bag beside it and checks it with rosbags: every
