@@ -17,15 +17,10 @@ mod common;
 use std::collections::HashMap;
 use std::path::Path;
 
-use common::cyclone::{python_with_cyclonedds, start_ready, stop_and_read};
+use common::cyclone::{lease_domain, python_with_cyclonedds, start_ready, stop_and_read};
 use common::{fails, ok, tempdir, trained};
 use serde_json::{Value, json};
 use slidetrack_session::{ReadOptions, read_json};
-
-/// A DDS domain id of this test process alone (`offset` tells tests apart).
-fn domain(offset: u32) -> u32 {
-    10 + (std::process::id() % 100) * 2 + offset
-}
 
 fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
@@ -99,7 +94,7 @@ fn cyclone_dds_receives_the_sessions_values_during_track() {
     let dir = tempdir();
     let (_, model) = trained(dir.path());
     let session = dir.path().join("tracked.mcap");
-    let domain = domain(0);
+    let (domain, _lease) = lease_domain();
     let subscriber = start_ready(&python, "ros2_subscriber.py", domain);
     // At real time, so that the subscriber matches the writers early in the
     // trial; on a loaded machine (CI, shared cores) a scan may come late to
@@ -149,7 +144,7 @@ fn cyclone_dds_receives_a_played_sessions_values() {
     let session = dir.path().join("tracked.mcap");
     let args = ["-q", "track", "--model", s(&model), "--duration", "3", "--seed", "8", "--vision", "maskukf"];
     ok(&[&args[..], &["--out", s(&session)]].concat());
-    let domain = domain(1);
+    let (domain, _lease) = lease_domain();
     let subscriber = start_ready(&python, "ros2_subscriber.py", domain);
     let d = domain.to_string();
     let out = ok(&["play", s(&session), "--ros2", "--ros2-domain", &d, "--rate", "2"]);

@@ -39,7 +39,7 @@ fn args(sessions: &Path, out: &Path) -> Vec<String> {
     a
 }
 
-/// A local run of the study, once per test binary.
+/// A local run of the study, once per run of the tests.
 struct Local {
     sessions: PathBuf,
     out: PathBuf,
@@ -47,14 +47,33 @@ struct Local {
 
 /// The local run (in the target's test directory, replaced on each run of
 /// the tests): its sessions, which the Slurm runs reuse, and its output.
+///
+/// Shared by the tests of one run whether they are threads of one process
+/// (`cargo test`) or processes of their own (`cargo nextest`, whose
+/// `NEXTEST_RUN_ID` names the run): the first to take the lock runs the
+/// study and marks it done; the others wait for the lock and reuse it.
 fn local() -> &'static Local {
     static LOCAL: OnceLock<Local> = OnceLock::new();
     LOCAL.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("study_slurm");
-        let _ = std::fs::remove_dir_all(&dir);
+        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("study_slurm");
+        std::fs::create_dir_all(&root).expect("the study's test directory");
+        let lock = std::fs::File::create(root.join("lock")).expect("the lock file");
+        lock.lock().expect("the lock");
+        let run = std::env::var("NEXTEST_RUN_ID").unwrap_or_else(|_| std::process::id().to_string());
+        let dir = root.join(format!("run-{run}"));
         let (sessions, out) = (dir.join("sessions"), dir.join("local"));
-        let a = args(&sessions, &out);
-        ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+        if !dir.join("done").exists() {
+            // Earlier runs' studies go: one run of the tests at a time.
+            for old in std::fs::read_dir(&root).expect("the study's test directory") {
+                let old = old.expect("an entry").path();
+                if old.is_dir() {
+                    std::fs::remove_dir_all(&old).expect("an earlier run's study");
+                }
+            }
+            let a = args(&sessions, &out);
+            ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+            std::fs::write(dir.join("done"), "").expect("the done mark");
+        }
         Local { sessions, out }
     })
 }

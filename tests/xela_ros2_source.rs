@@ -17,15 +17,10 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::process::Child;
 
-use common::cyclone::{python_with_cyclonedds, start_ready, stop_and_read};
+use common::cyclone::{lease_domain, python_with_cyclonedds, start_ready, stop_and_read};
 use common::{run, tempdir};
 use serde_json::Value;
 use slidetrack_session::{ReadOptions, TactileCalibrated, TactileDeviceTime, TactileRaw, read_channel};
-
-/// A DDS domain id of this test process (212-231: above tests/ros2_live.rs's 10-211).
-fn domain() -> u32 {
-    212 + (std::process::id() % 10) * 2
-}
 
 /// Stops the publisher; what it published, by message counter, then by sensor_pos.
 fn published(child: Child) -> HashMap<u64, HashMap<u64, Value>> {
@@ -97,7 +92,7 @@ fn f64s(v: &Value) -> Vec<f64> {
 fn every_taxel_published_by_cyclone_dds_is_recorded() {
     let Some(python) = python_with_cyclonedds() else { return };
     let dir = tempdir();
-    let domain = domain();
+    let (domain, _lease) = lease_domain();
     let rig_path = dir.path().join("rig.toml");
     std::fs::write(&rig_path, rig(domain)).expect("rig TOML");
     let file = dir.path().join("xela.mcap");
@@ -148,7 +143,7 @@ fn every_taxel_published_by_cyclone_dds_is_recorded() {
 fn a_sensor_the_server_does_not_send_is_named_in_one_line() {
     let Some(python) = python_with_cyclonedds() else { return };
     let dir = tempdir();
-    let domain = domain() + 1;
+    let (domain, _lease) = lease_domain();
     let rig_path = dir.path().join("rig.toml");
     std::fs::write(&rig_path, rig(domain).replace("sensor = 1\n", "sensor = 9\n")).expect("rig TOML");
     let file = dir.path().join("xela.mcap");
@@ -169,7 +164,8 @@ fn a_sensor_the_server_does_not_send_is_named_in_one_line() {
 fn no_publisher_is_a_startup_timeout_naming_the_topic() {
     let dir = tempdir();
     let rig_path = dir.path().join("rig.toml");
-    let text = rig(domain() + 1).replace("kind = \"ros2\"\n", "kind = \"ros2\"\nstartup_timeout_ms = 1500\n");
+    let (domain, _lease) = lease_domain();
+    let text = rig(domain).replace("kind = \"ros2\"\n", "kind = \"ros2\"\nstartup_timeout_ms = 1500\n");
     std::fs::write(&rig_path, text).expect("rig TOML");
     let file = dir.path().join("xela.mcap");
     let out = record(&rig_path, &file);

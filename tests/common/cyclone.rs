@@ -50,3 +50,20 @@ pub fn stop_and_read(mut child: Child) -> Vec<Value> {
         .map(|l| serde_json::from_str(l).expect("JSON line"))
         .collect()
 }
+
+/// A DDS domain id of the calling test alone while the returned lock lives:
+/// the first of 10..=230 whose lock file in the target's test directory it
+/// can lock. Tests run as threads of one process (`cargo test`) or as
+/// processes of their own (`cargo nextest`), in several test binaries at
+/// once; a domain each keeps one test's participants from another's data.
+pub fn lease_domain() -> (u32, std::fs::File) {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("dds-domains");
+    std::fs::create_dir_all(&dir).expect("the DDS domains' lock directory");
+    for domain in 10..=230u32 {
+        let file = std::fs::File::create(dir.join(format!("{domain}.lock"))).expect("a domain's lock file");
+        if file.try_lock().is_ok() {
+            return (domain, file);
+        }
+    }
+    panic!("every DDS domain 10-230 is held by another test");
+}
