@@ -13,6 +13,8 @@
 //! own colour are written as a constant, or left alone when they show the
 //! background (the frame already holds it, blurred).
 
+use std::sync::OnceLock;
+
 use super::raster::{PixelRect, PlaneInCamera, UndistortionMap, luma, quantise, to_fixed};
 
 /// Sample positions inside a pixel (fractions of its side from the top-left
@@ -317,12 +319,47 @@ pub(super) fn draw_plane<P: PlanarPattern + Sync, const C: usize>(
     let mut top = Target { data: top, ..*target };
     let mut bottom = Target { data: bottom, row0: split_y, ..*target };
     let (grid, corner_at, resolved) = (&grid, &corner_at, &resolved);
-    // The second band goes to rayon's pool, whose threads wait between
-    // frames: a frame no longer starts (and ends) a thread.
-    rayon::in_place_scope(|s| {
+    // The second band goes to a pool thread, which waits between frames: a
+    // frame starts (and ends) no thread.
+    band_pool().in_place_scope(|s| {
         s.spawn(move |_| draw_band::<P, C>(scene, grid, split..nby, corner_at, resolved, lower, &mut bottom));
         draw_band::<P, C>(scene, grid, 0..split, corner_at, resolved, upper, &mut top);
     });
+}
+
+/// The pool that draws the second band: one thread of its own. Rayon's
+/// global pool has a thread per core, and each of them woken by a frame
+/// spins a while (yielding) before it sleeps again: on two busy cores that
+/// was a few per cent of a trial's CPU time for no work. A pool that cannot
+/// be built leaves the global one.
+fn band_pool() -> &'static BandPool {
+    static POOL: OnceLock<BandPool> = OnceLock::new();
+    POOL.get_or_init(|| {
+        match rayon::ThreadPoolBuilder::new().num_threads(1).thread_name(|_| "render-band".into()).build() {
+            Ok(pool) => BandPool::Own(pool),
+            Err(e) => {
+                tracing::warn!(
+                    "sim camera: no thread of its own for the second band ({e}); rayon's pool draws it"
+                );
+                BandPool::Global
+            }
+        }
+    })
+}
+
+/// Where the second band is drawn.
+enum BandPool {
+    Own(rayon::ThreadPool),
+    Global,
+}
+
+impl BandPool {
+    fn in_place_scope<'scope>(&self, op: impl FnOnce(&rayon::Scope<'scope>)) {
+        match self {
+            BandPool::Own(pool) => pool.in_place_scope(op),
+            BandPool::Global => rayon::in_place_scope(op),
+        }
+    }
 }
 
 /// The first block row of the second band: where the rows before it hold
@@ -494,9 +531,13 @@ fn blur_span<const C: usize>(
     let (y0, y1) = (span.y0 - rect.y0, span.y1 - rect.y0);
     let row_len = (x1 - x0) * C;
     // Horizontal pass over the span's columns, for its rows and r rows around.
+    // The first tap sets each sum (as 0 + k x would: the values are not
+    // negative), so the buffers need no zeroing.
     let (hy0, hy1) = (y0.saturating_sub(r), (y1 + r).min(h));
-    lane.horizontal.clear();
-    lane.horizontal.resize((hy1 - hy0) * row_len, 0.0);
+    let need = (hy1 - hy0) * row_len;
+    if lane.horizontal.len() < need {
+        lane.horizontal.resize(need, 0.0);
+    }
     for y in hy0..hy1 {
         let row = &lane.patch[y * w * C..(y + 1) * w * C];
         let out = &mut lane.horizontal[(y - hy0) * row_len..(y - hy0 + 1) * row_len];
@@ -504,13 +545,22 @@ fn blur_span<const C: usize>(
             // Interior: one multiply-add per tap over the whole row of the span.
             for (t, &k) in kernel.iter().enumerate() {
                 let src = &row[(x0 + t - r) * C..(x1 + t - r) * C];
-                out.iter_mut().zip(src).for_each(|(o, s)| *o += k * s);
+                if t == 0 {
+                    out.iter_mut().zip(src).for_each(|(o, s)| *o = k * s);
+                } else {
+                    out.iter_mut().zip(src).for_each(|(o, s)| *o += k * s);
+                }
             }
         } else {
             for (t, &k) in kernel.iter().enumerate() {
                 for (x, o) in (x0..x1).zip(out.chunks_exact_mut(C)) {
                     let xs = (x + t).saturating_sub(r).min(w - 1);
-                    o.iter_mut().zip(&row[xs * C..(xs + 1) * C]).for_each(|(o, s)| *o += k * s);
+                    let src = &row[xs * C..(xs + 1) * C];
+                    if t == 0 {
+                        o.iter_mut().zip(src).for_each(|(o, s)| *o = k * s);
+                    } else {
+                        o.iter_mut().zip(src).for_each(|(o, s)| *o += k * s);
+                    }
                 }
             }
         }
@@ -520,11 +570,14 @@ fn blur_span<const C: usize>(
     lane.vertical.resize(row_len, 0.0);
     for y in y0..y1 {
         let acc = &mut lane.vertical;
-        acc.iter_mut().for_each(|a| *a = 0.0);
         for (t, &k) in kernel.iter().enumerate() {
             let ys = (y + t).saturating_sub(r).clamp(hy0, hy1 - 1) - hy0;
             let src = &lane.horizontal[ys * row_len..(ys + 1) * row_len];
-            acc.iter_mut().zip(src).for_each(|(a, s)| *a += k * s);
+            if t == 0 {
+                acc.iter_mut().zip(src).for_each(|(a, s)| *a = k * s);
+            } else {
+                acc.iter_mut().zip(src).for_each(|(a, s)| *a += k * s);
+            }
         }
         lane.fixed.iter_mut().zip(acc.iter()).for_each(|(f, &v)| *f = to_fixed(v));
         target.write(rect.x0 + x0, rect.y0 + y, C, &lane.fixed);
