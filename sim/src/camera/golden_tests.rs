@@ -27,7 +27,7 @@ fn fnv1a(image: &Image) -> u64 {
 
 /// A 6x6 pattern with a recognisable layout (not from any dictionary).
 fn pattern(id: u32) -> MarkerPattern {
-    let bits = (0..36).map(|k| u8::from((k * 7 + k / 6 + id as usize) % 3 == 0)).collect();
+    let bits = (0..36).map(|k: usize| u8::from((k * 7 + k / 6 + id as usize).is_multiple_of(3))).collect();
     MarkerPattern { dictionary: "TEST_6X6".into(), id, cells: 6, bits }
 }
 
