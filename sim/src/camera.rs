@@ -42,6 +42,8 @@ mod render;
 mod texture;
 
 #[cfg(test)]
+mod golden_tests;
+#[cfg(test)]
 mod tests;
 
 pub use board::Chessboard;

@@ -2,6 +2,7 @@
 
 mod bad_input;
 mod errors;
+mod image_json;
 mod kill;
 mod live_tap;
 mod other_channels;

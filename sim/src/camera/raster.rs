@@ -304,6 +304,12 @@ pub(super) fn to_fixed(value: f32) -> i16 {
 #[inline]
 pub(super) fn quantise(scene_fixed: &[i16], noise_fixed: &[i16], out: &mut [u8]) {
     for ((o, &s), &n) in out.iter_mut().zip(scene_fixed).zip(noise_fixed) {
-        *o = ((s + n + 8) >> 4).clamp(0, 255) as u8;
+        *o = quantise_one(s, n);
     }
+}
+
+/// One byte of [`quantise`].
+#[inline]
+pub(super) fn quantise_one(scene_fixed: i16, noise_fixed: i16) -> u8 {
+    ((scene_fixed + noise_fixed + 8) >> 4).clamp(0, 255) as u8
 }

@@ -14,7 +14,7 @@ use super::error::SimCameraError;
 use super::face::FacePattern;
 use super::object::ObjectAppearance;
 use super::raster::{
-    FIXED_ONE, PixelRect, PlaneInCamera, UndistortionMap, blur, gaussian_kernel, outline_bbox, quantise,
+    FIXED_ONE, PixelRect, PlaneInCamera, UndistortionMap, blur, gaussian_kernel, outline_bbox, quantise_one,
     to_fixed,
 };
 use super::texture::{BackgroundPlane, Texture, splitmix64};
@@ -245,8 +245,8 @@ impl SimCameraRenderer {
         let n = width * height * channels;
         let offset = (noise_key % (self.noise_fixed.len() - n + 1) as u64) as usize;
         let noise = &self.noise_fixed[offset..offset + n];
-        let mut data = vec![0u8; n];
-        quantise_frame(&self.background_fixed, noise, &mut data, scratch.two_threads);
+        // Written once, not zeroed first (every byte is the background's).
+        let mut data = quantised(&self.background_fixed, noise);
         let Some(Drawn { plane, pattern, outline }) = drawn else {
             return self.image(data);
         };
@@ -278,18 +278,13 @@ impl SimCameraRenderer {
     }
 }
 
-/// [`quantise`] over a whole frame: its second half on a pool thread with
-/// `two_threads` (the same bytes either way: each is its own sum).
-fn quantise_frame(scene_fixed: &[i16], noise_fixed: &[i16], out: &mut [u8], two_threads: bool) {
-    if !two_threads {
-        return quantise(scene_fixed, noise_fixed, out);
-    }
-    let half = out.len() / 2;
-    let (top, bottom) = out.split_at_mut(half);
-    rayon::in_place_scope(|s| {
-        s.spawn(|_| quantise(&scene_fixed[half..], &noise_fixed[half..], bottom));
-        quantise(&scene_fixed[..half], &noise_fixed[..half], top);
-    });
+/// The noisy background of a whole frame, quantised as by
+/// [`quantise`](super::raster::quantise), in a vector filled once (no
+/// zeroing first). A frame with the object out of view takes about 17 us
+/// at 640x480 gray this way, 21 us zeroed first and 33 us with half of it
+/// handed to a pool thread (`time_the_renderer`, release build).
+fn quantised(scene_fixed: &[i16], noise_fixed: &[i16]) -> Vec<u8> {
+    scene_fixed.iter().zip(noise_fixed).map(|(&s, &n)| quantise_one(s, n)).collect()
 }
 
 /// Whether this process may run on two cores or more.
