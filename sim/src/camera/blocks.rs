@@ -562,22 +562,14 @@ fn blur_span<const C: usize>(
             // Interior: one multiply-add per tap over the whole row of the span.
             for (t, &k) in kernel.iter().enumerate() {
                 let src = &row[(x0 + t - r) * C..(x1 + t - r) * C];
-                if t == 0 {
-                    out.iter_mut().zip(src).for_each(|(o, s)| *o = k * s);
-                } else {
-                    out.iter_mut().zip(src).for_each(|(o, s)| *o += k * s);
-                }
+                add_tap(out, src, k, t == 0);
             }
         } else {
             for (t, &k) in kernel.iter().enumerate() {
                 for (x, o) in (x0..x1).zip(out.chunks_exact_mut(C)) {
                     let xs = (x + t).saturating_sub(r).min(w - 1);
                     let src = &row[xs * C..(xs + 1) * C];
-                    if t == 0 {
-                        o.iter_mut().zip(src).for_each(|(o, s)| *o = k * s);
-                    } else {
-                        o.iter_mut().zip(src).for_each(|(o, s)| *o += k * s);
-                    }
+                    add_tap(o, src, k, t == 0);
                 }
             }
         }
@@ -590,11 +582,7 @@ fn blur_span<const C: usize>(
         for (t, &k) in kernel.iter().enumerate() {
             let ys = (y + t).saturating_sub(r).clamp(hy0, hy1 - 1) - hy0;
             let src = &lane.horizontal[ys * row_len..(ys + 1) * row_len];
-            if t == 0 {
-                acc.iter_mut().zip(src).for_each(|(a, s)| *a = k * s);
-            } else {
-                acc.iter_mut().zip(src).for_each(|(a, s)| *a += k * s);
-            }
+            add_tap(acc, src, k, t == 0);
         }
         lane.fixed.iter_mut().zip(acc.iter()).for_each(|(f, &v)| *f = to_fixed(v));
         target.write(rect.x0 + x0, rect.y0 + y, C, &lane.fixed);
@@ -616,6 +604,18 @@ fn write_constant<const C: usize>(
     debug_assert_eq!(fixed.len(), row_len);
     for y in block.y0..block.y1 {
         target.write(block.x0, y, C, fixed);
+    }
+}
+
+/// One tap of the blur: `sums += k * src`, or `sums = k * src` for the
+/// first tap (the same bits as adding it to zeros: the values are not
+/// negative), so that the sums need no zeroing.
+#[inline]
+fn add_tap(sums: &mut [f32], src: &[f32], k: f32, first: bool) {
+    if first {
+        sums.iter_mut().zip(src).for_each(|(o, s)| *o = k * s);
+    } else {
+        sums.iter_mut().zip(src).for_each(|(o, s)| *o += k * s);
     }
 }
 
