@@ -4,7 +4,6 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use slidetrack_experiment::dekf_train::model_options::DEFAULT_PART_WINDOWS;
 use slidetrack_experiment::vision::camera_vision::CameraVisionOptions;
 use slidetrack_experiment::vision::{Measurements, PoseReset, TrackerKind};
 
@@ -173,8 +172,10 @@ pub struct BenchArgs {
     pub batch: usize,
     /// Windows per part of a batch's gradient in the training benchmark,
     /// comma-separated to compare several (every training of a run in
-    /// turn); the first is judged.
-    #[arg(long, value_delimiter = ',', default_values_t = [DEFAULT_PART_WINDOWS])]
+    /// turn); the first is judged. Default: the largest size (at most
+    /// `train`'s default of 16) that gives each of the machine's threads a
+    /// part of the batch (16 at batch 32 on 2 cores, 2 on 16 cores).
+    #[arg(long, value_delimiter = ',')]
     pub part_windows: Vec<usize>,
     /// Simulated sessions of 60 s the training benchmark trains on (50: the
     /// thesis-sized set, whose target is 180 s; fewer for a quicker look,

@@ -17,6 +17,7 @@ use slidetrack_sim::ObjectConfig;
 
 use super::median;
 use crate::dataset::{ChannelSet, SessionData, TruthSource, load};
+use crate::dekf_train::model_options::DEFAULT_PART_WINDOWS;
 use crate::dekf_train::{TrainSpec, Trained};
 use crate::rig::TrialSpec;
 use crate::rig_config::RigConfig;
@@ -43,8 +44,18 @@ pub struct TrainingBench {
     /// Windows per batch.
     pub batch: usize,
     /// Sizes of the gradient's parts to compare (windows each); the first
-    /// is the one judged.
+    /// is the one judged. Empty: [`machine_part_windows`] alone.
     pub part_windows: Vec<usize>,
+}
+
+/// The part size the benchmark judges unless told: the largest, at most
+/// `train`'s default ([`DEFAULT_PART_WINDOWS`]), that gives each of
+/// `threads` threads a part of a batch of `batch` windows: 16 at batch 32
+/// on 2 threads, 4 on 8, 2 on 16, 1 on 32 or more. (`train` keeps its
+/// fixed default, since the part size changes the model by rounding and a
+/// model must not depend on the machine it was trained on.)
+pub fn machine_part_windows(batch: usize, threads: usize) -> usize {
+    (batch / threads.max(1)).clamp(1, DEFAULT_PART_WINDOWS)
 }
 
 /// Collects `n` simulated 60 s sessions without camera (with the simulator's truth) into `dir`.
@@ -114,7 +125,14 @@ pub fn training(
     b: &TrainingBench,
     fit: &mut dyn FnMut(&TrainSpec, &[SessionData]) -> Result<Trained>,
 ) -> Result<Value> {
-    if b.part_windows.is_empty() || b.part_windows.contains(&0) {
+    let machine = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
+    let part_windows = if b.part_windows.is_empty() {
+        vec![machine_part_windows(b.batch, machine)]
+    } else {
+        b.part_windows.clone()
+    };
+    let b = &TrainingBench { part_windows, ..b.clone() };
+    if b.part_windows.contains(&0) {
         bail!(
             "the part sizes to measure (--part-windows) must be at least 1 window each, got {:?}",
             b.part_windows
@@ -274,5 +292,18 @@ mod tests {
         assert!(c.contains(&3), "{c:?}");
         assert!(c.windows(2).all(|w| w[0] < w[1]), "{c:?}");
         assert_eq!(thread_counts(0)[0], 1);
+    }
+
+    /// Issue 29's case, batch 32 on 16 threads, gets parts of 2 (16
+    /// parts, one per thread); 2 cores keep `train`'s default; the size
+    /// never exceeds that default nor falls below one window.
+    #[test]
+    fn the_machine_part_size_gives_every_thread_a_part() {
+        assert_eq!(machine_part_windows(32, 16), 2);
+        assert_eq!(machine_part_windows(32, 2), DEFAULT_PART_WINDOWS);
+        assert_eq!(machine_part_windows(32, 8), 4);
+        assert_eq!(machine_part_windows(32, 64), 1);
+        assert_eq!(machine_part_windows(4096, 16), DEFAULT_PART_WINDOWS);
+        assert_eq!(machine_part_windows(1, 0), 1);
     }
 }
