@@ -82,10 +82,14 @@ fn thesis_sized_set(dir: &Path, n: u32, duration_s: f64) -> Result<Vec<PathBuf>>
         .collect()
 }
 
+/// The machine's thread count (1 where it cannot be told).
+fn machine_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+}
+
 /// The thread counts measured: 1, 2, `asked` and the machine's, each once, in order.
 fn thread_counts(asked: usize) -> Vec<usize> {
-    let machine = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
-    let mut counts = vec![1, 2, asked.max(1), machine];
+    let mut counts = vec![1, 2, asked.max(1), machine_threads()];
     counts.sort_unstable();
     counts.dedup();
     counts
@@ -125,9 +129,8 @@ pub fn training(
     b: &TrainingBench,
     fit: &mut dyn FnMut(&TrainSpec, &[SessionData]) -> Result<Trained>,
 ) -> Result<Value> {
-    let machine = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
     let part_windows = if b.part_windows.is_empty() {
-        vec![machine_part_windows(b.batch, machine)]
+        vec![machine_part_windows(b.batch, machine_threads())]
     } else {
         b.part_windows.clone()
     };
