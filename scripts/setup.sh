@@ -88,13 +88,8 @@ fi
 # --- end: Node.js and the Foxglove WebSocket client ---
 
 if [ "$python" = 1 ]; then
-  # The pinned packages, each with the module whose import shows it is there:
-  #   the official MCAP reader, NumPy, minimalmodbus and pyserial, websockets;
-  #   opencv-python-headless (an independent OpenCV for the board poses);
-  #   torch (the dEKF's PyTorch twin); rosbags (the independent ROS 2 bag
-  #   reader); cyclonedds (Eclipse Cyclone DDS, the independent DDS of the
-  #   ROS 2 topics' tests: its manylinux wheel bundles the C library, so
-  #   nothing is installed system-wide).
+  # The pinned packages (what each is for: the header above), and the
+  # modules whose import shows they are all there.
   python_packages=('mcap==1.6.0' 'numpy==2.4.6' 'minimalmodbus==2.1.1' 'pyserial==3.5' 'websockets==15.0.1'
     'opencv-python-headless==4.13.0.92' 'torch==2.15.0' 'rosbags==0.11.9' 'cyclonedds==11.0.1')
   python_modules='mcap, numpy, minimalmodbus, serial, websockets, cv2, torch, rosbags, cyclonedds.domain'
