@@ -99,13 +99,12 @@ if [ "$python" = 1 ]; then
     python3 -m venv target/pyenv
   fi
   if ! target/pyenv/bin/python -c "import $python_modules" 2>/dev/null; then
-    # uv (Astral's installer, from PyPI) installs them: it downloads and
-    # unpacks in parallel, does not byte-compile every module up front, and
-    # links files from its cache (~/.cache/uv) where pip copies them. The
-    # whole set (about 5.6 GB, PyTorch's CUDA libraries included) took 25 s
-    # and 42 s of CPU from an empty cache against pip's 143 s and 138 s of
-    # CPU, and 1.5 s from a full one (issue 29; the tests install it while
-    # the workspace compiles).
+    # uv installs them: it downloads and unpacks in parallel, does not
+    # byte-compile every module up front, and links files from its cache
+    # (~/.cache/uv) where pip copies them. The whole set (about 5.6 GB,
+    # PyTorch's CUDA libraries included) took 25 s and 42 s of CPU from an
+    # empty cache against pip's 143 s and 138 s of CPU, and 1.5 s from a
+    # full one (issue 29; the tests install it while the workspace compiles).
     if [ ! -x target/pyenv/bin/uv ]; then
       target/pyenv/bin/python -m pip install -q 'uv==0.13.9'
     fi
