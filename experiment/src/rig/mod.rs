@@ -5,6 +5,8 @@
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod hw;
 #[cfg(all(feature = "devices", target_os = "linux"))]
+mod marker_thread;
+#[cfg(all(feature = "devices", target_os = "linux"))]
 mod ros2_tactile;
 mod trial;
 
