@@ -24,7 +24,7 @@ use slidetrack_drivers::robotiq::backend::{
 use slidetrack_sim::camera::SimCameraRenderer;
 use slidetrack_sim::{HandKind, SharedWorld, SimActuator, SimCamera, SimDevices, SimHandMonitor};
 
-use super::marker_thread::detect_beside_the_loop;
+use super::marker_thread::detect_off_the_loop;
 use super::ros2_tactile::open_ros2_tactile;
 use super::trial::{HandUse, RigSetup, TrialSpec, UndrivenHand, marker_tracking};
 use crate::marker::MarkerSource;
@@ -153,23 +153,9 @@ pub fn build_hw_rig(spec: &TrialSpec, hand_use: HandUse) -> Result<RigSetup> {
         }
         (setup.markers, setup.rgbd, setup.rgbd_frames) = (Some(markers), Some(camera), Some(frames));
     }
+    // A whole-frame search for the marker takes tens of ms: off the control loop.
     detect_off_the_loop(&mut setup)?;
     Ok(setup)
-}
-
-/// Moves the marker detection of `setup`'s camera to a thread of its own
-/// ([`detect_beside_the_loop`]): a whole-frame search takes tens of ms.
-fn detect_off_the_loop(setup: &mut RigSetup) -> Result<()> {
-    match (setup.rig.camera.take(), setup.markers.take()) {
-        (Some(camera), Some(markers)) => {
-            let (camera, markers) = detect_beside_the_loop(camera, markers)
-                .context("cannot start the thread of the marker detection")?;
-            setup.rig.camera = Some(Box::new(camera));
-            setup.markers = Some(Box::new(markers));
-        }
-        (camera, markers) => (setup.rig.camera, setup.markers) = (camera, markers),
-    }
-    Ok(())
 }
 
 /// A monitor of the hand's status, when its driver reads one.

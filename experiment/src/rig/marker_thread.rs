@@ -9,13 +9,15 @@
 //! busy loops, where the protocol aborted the trial on tactile data older
 //! than its 50 ms limit (`tests/rgbd_one_camera.rs`, 2 runs in 5).
 //!
-//! On the real rig (the host's clock) the camera is therefore polled, and
-//! each frame searched, on a thread of its own ([`detect_beside_the_loop`]):
+//! On the host's clock (the real rig, and the simulated one with
+//! `--realtime`) the camera is therefore polled, and each frame searched, on
+//! a thread of its own ([`detect_off_the_loop`]):
 //! the control loop gets from [`DetectedCamera`] only frames whose detection
 //! is done, and [`DetectedMarkers`] hands it that detection at once. What the
 //! session records is unchanged (every frame with its own detection, in
-//! frame order); frames reach the loop later by their detection's time. The
-//! simulated rig, on the simulator's time, keeps detecting on its loop, so a
+//! frame order); frames reach the loop later by their detection's time, and
+//! a frame still being searched when the trial ends is not recorded. The
+//! simulated rig on the simulator's time keeps detecting on its loop, so a
 //! seed still gives the same session.
 
 use std::sync::Arc;
@@ -23,11 +25,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use anyhow::{Context, Result};
 use crossbeam_channel::{Receiver, SendTimeoutError, Sender, TryRecvError};
 use slidetrack_control::ObserverError;
 use slidetrack_core::{Camera, CameraIntrinsics, DeviceError, ErrorKind, Frame};
 use slidetrack_session::ArucoDetection;
 
+use super::RigSetup;
 use crate::marker::MarkerSource;
 
 /// How long the thread sleeps when the camera has no new frame (cameras
@@ -44,6 +48,21 @@ const STOP_CHECK: Duration = Duration::from_millis(20);
 struct Detected {
     sequence: u64,
     detection: Result<ArucoDetection, ObserverError>,
+}
+
+/// Moves the marker detection of `setup`'s camera, when it has one, to a
+/// thread of its own ([`detect_beside_the_loop`]).
+pub(crate) fn detect_off_the_loop(setup: &mut RigSetup) -> Result<()> {
+    match (setup.rig.camera.take(), setup.markers.take()) {
+        (Some(camera), Some(markers)) => {
+            let (camera, markers) = detect_beside_the_loop(camera, markers)
+                .context("cannot start the thread of the marker detection")?;
+            setup.rig.camera = Some(Box::new(camera));
+            setup.markers = Some(Box::new(markers));
+        }
+        (camera, markers) => (setup.rig.camera, setup.markers) = (camera, markers),
+    }
+    Ok(())
 }
 
 /// Starts polling `camera` and detecting with `markers` on a thread named

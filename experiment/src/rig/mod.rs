@@ -4,7 +4,6 @@
 
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod hw;
-#[cfg(all(feature = "devices", target_os = "linux"))]
 mod marker_thread;
 #[cfg(all(feature = "devices", target_os = "linux"))]
 mod ros2_tactile;
@@ -83,7 +82,7 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         truth: Some(Box::new(sim.truth)),
         hand_monitor,
     };
-    Ok(RigSetup {
+    let mut setup = RigSetup {
         rig,
         tactile_info,
         markers,
@@ -92,7 +91,13 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
         rgbd: None,
         rgbd_frames: None,
         image_encoder,
-    })
+    };
+    if spec.realtime {
+        // On the host's clock, as on the real rig: the camera and its
+        // marker detection off the control loop.
+        marker_thread::detect_off_the_loop(&mut setup)?;
+    }
+    Ok(setup)
 }
 
 /// The protocol of a trial of `object` on `rig`, whose sliding cycles last
