@@ -31,7 +31,7 @@ use slidetrack_control::ObserverError;
 use slidetrack_core::{Camera, CameraIntrinsics, DeviceError, ErrorKind, Frame};
 use slidetrack_session::ArucoDetection;
 
-use super::RigSetup;
+use super::trial::RigSetup;
 use crate::marker::MarkerSource;
 
 /// How long the thread sleeps when the camera has no new frame (cameras
