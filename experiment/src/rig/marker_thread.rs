@@ -1,4 +1,4 @@
-//! The real rig's marker detection, beside the trial's control loop.
+//! Marker detection beside the trial's control loop, on the host's clock.
 //!
 //! Each camera frame's marker detection (OpenCV's ArUco search and the
 //! marker's pose) used to run on the control loop's thread, between two
