@@ -4,6 +4,8 @@
 #     clang/libclang, which the opencv crate needs to generate its bindings;
 #   - zstd's development files (libzstd-dev, found with pkg-config), which
 #     the sessions' MCAP chunk compression links;
+#   - libjpeg-turbo's TurboJPEG (libturbojpeg0-dev, found with pkg-config),
+#     which reads and writes JPEG images;
 #   - a TrueType font (DejaVu) for the text of plots;
 #   - the kernel's user-space headers (linux/videodev2.h), from which the v4l
 #     crate generates its V4L2 bindings with libclang;
@@ -30,7 +32,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(libopencv-dev libopencv-contrib-dev clang libclang-dev pkg-config libzstd-dev fonts-dejavu-core linux-libc-dev)
+packages=(libopencv-dev libopencv-contrib-dev clang libclang-dev pkg-config libzstd-dev libturbojpeg0-dev fonts-dejavu-core linux-libc-dev)
 mode="${1:-}"
 system=1
 python=0

@@ -11,7 +11,7 @@ use std::str::FromStr;
 use opencv::aruco::{self, CharucoBoardTraitConst};
 use opencv::core::{self, Mat, MatTraitConst, Point2f, Point3f, Ptr, Size, TermCriteria, Vector};
 use opencv::prelude::*;
-use opencv::{calib3d, imgcodecs, imgproc};
+use opencv::{calib3d, imgproc};
 use slidetrack_core::{CameraIntrinsics, Image, PixelFormat};
 
 use crate::aruco::Dictionary;
@@ -229,14 +229,12 @@ pub fn read_gray(path: &Path) -> Result<GrayImage, CalibrationError> {
         // OpenCV would log a warning of its own before failing.
         return Err(unreadable());
     }
-    let colour = imgcodecs::imread(path, imgcodecs::IMREAD_COLOR).map_err(|_| unreadable())?;
-    if colour.empty() {
-        return Err(unreadable());
-    }
-    let mut mat = Mat::default();
-    imgproc::cvt_color_def(&colour, &mut mat, imgproc::COLOR_BGR2GRAY).cv("cvtColor")?;
-    let (width, height) = (mat.cols().max(0) as u32, mat.rows().max(0) as u32);
-    Ok(GrayImage { mat, width, height })
+    let bytes = std::fs::read(path).map_err(|_| unreadable())?;
+    // JPEG or PNG as `imread`'s colour, then `RGB2GRAY`: the same gray as
+    // `BGR2GRAY` on `imread`'s BGR.
+    let colour = crate::codec::decode(&bytes, PixelFormat::Rgb8).map_err(|_| unreadable())?;
+    let mat = gray_mat(&colour)?;
+    Ok(GrayImage { mat, width: colour.width, height: colour.height })
 }
 
 /// A camera image as an OpenCV 8-bit gray matrix (copied).

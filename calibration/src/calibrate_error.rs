@@ -21,7 +21,7 @@ pub enum CalibrationError {
         reason: String,
     },
     /// An image file could not be read or decoded.
-    #[error("cannot read image {path} (missing, or not an image OpenCV can decode)")]
+    #[error("cannot read image {path} (missing, or neither JPEG nor PNG)")]
     UnreadableImage {
         /// The file.
         path: PathBuf,

@@ -8,11 +8,11 @@
 
 use std::time::{Duration, Instant};
 
-use opencv::core::{Mat, MatTraitConst, Vector};
-use opencv::imgcodecs;
-use slidetrack_core::{Camera, DeviceError, Frame};
+use opencv::core::{Mat, MatTraitConst, MatTraitConstManual};
+use slidetrack_core::{Camera, DeviceError, Frame, Image, PixelFormat};
 
 use crate::calibrate::{CalibrationError, Cv, PatternFinder, PatternView, gray_mat};
+use crate::error::MarkerError;
 
 /// Where a view sits: centre and size in the image, and how the pattern is
 /// tilted (log ratios of opposite sides), all dimensionless.
@@ -208,25 +208,17 @@ fn frame_gray(frame: &Frame) -> Result<Mat, LiveError> {
     let Some(encoded) = &frame.encoded else {
         return Err(LiveError::EmptyFrame { sequence: frame.sequence });
     };
-    let bytes = Vector::<u8>::from_slice(&encoded.bytes);
-    let gray = imgcodecs::imdecode(&bytes, imgcodecs::IMREAD_GRAYSCALE).cv("imdecode")?;
-    if gray.empty() {
-        return Err(LiveError::EmptyFrame { sequence: frame.sequence });
-    }
-    Ok(gray)
+    let gray = crate::codec::decode(&encoded.bytes, PixelFormat::Gray8)
+        .map_err(|e| CalibrationError::Marker(MarkerError::Decode(e)))?;
+    Ok(gray_mat(&gray)?)
 }
 
 /// `gray` as PNG bytes (lossless, so a saved view gives the same corners).
 fn encode_png(gray: &Mat) -> Result<Vec<u8>, LiveError> {
-    let mut bytes = Vector::<u8>::new();
-    let written = imgcodecs::imencode(".png", gray, &mut bytes, &Vector::new()).cv("imencode")?;
-    if !written {
-        return Err(LiveError::Calibration(CalibrationError::OpenCv {
-            operation: "imencode",
-            source: opencv::Error::new(opencv::core::StsError, "PNG encoder refused the frame"),
-        }));
-    }
-    Ok(bytes.as_slice().to_vec())
+    let data = gray.data_bytes().cv("Mat::data_bytes")?.to_vec();
+    let image =
+        Image { width: gray.cols() as u32, height: gray.rows() as u32, format: PixelFormat::Gray8, data };
+    Ok(crate::codec::encode_png(&image).map_err(CalibrationError::Marker)?.bytes)
 }
 
 /// Why a live capture stopped.

@@ -125,8 +125,7 @@ fn live_capture_from_the_simulated_board_camera_keeps_spread_views_and_calibrate
     // The kept frames, saved as PNG, give the same views back.
     assert_eq!(capture.images.len(), capture.views.len());
     for (png, view) in capture.images.iter().zip(&capture.views) {
-        let bytes = opencv::core::Vector::<u8>::from_slice(png);
-        let gray = imgcodecs::imdecode(&bytes, imgcodecs::IMREAD_GRAYSCALE).unwrap();
+        let gray = gray_mat(&crate::codec::decode(png, PixelFormat::Gray8).unwrap()).unwrap();
         assert_eq!((gray.cols(), gray.rows()), (capture.width as i32, capture.height as i32));
         assert_eq!(finder.find(&gray).unwrap().as_ref(), Some(view));
     }

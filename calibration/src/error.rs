@@ -84,6 +84,17 @@ pub enum MarkerError {
         #[source]
         source: opencv::Error,
     },
+    /// An image that could not be encoded (JPEG, PNG).
+    #[error("{format} encoding failed: {detail}")]
+    Encode {
+        /// `JPEG` or `PNG`.
+        format: &'static str,
+        /// The encoder's message.
+        detail: String,
+    },
+    /// Image bytes that could not be decoded.
+    #[error(transparent)]
+    Decode(#[from] CodecError),
 }
 
 /// Attaches the OpenCV function name to OpenCV errors.
@@ -96,4 +107,28 @@ impl<T> OpenCvContext<T> for opencv::Result<T> {
     fn cv(self, operation: &'static str) -> Result<T, MarkerError> {
         self.map_err(|source| MarkerError::OpenCv { operation, source })
     }
+}
+
+/// Why image bytes could not be decoded or encoded.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CodecError {
+    /// Neither JPEG nor PNG (read from the first bytes).
+    #[error("not a JPEG or PNG image (it starts with {start:02x?})")]
+    UnknownFormat {
+        /// Up to the first 8 bytes.
+        start: Vec<u8>,
+    },
+    /// libjpeg-turbo refused the bytes or the image.
+    #[error("JPEG: {0}")]
+    Jpeg(#[from] turbojpeg::Error),
+    /// A PNG that does not decode.
+    #[error("PNG: {0}")]
+    PngDecode(#[from] png::DecodingError),
+    /// A PNG that could not be written.
+    #[error("PNG: {0}")]
+    PngEncode(#[from] png::EncodingError),
+    /// A valid image of a kind this reading does not take.
+    #[error("{0}")]
+    Unsupported(String),
 }

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use opencv::aruco::{self, DetectorParametersTrait};
 use opencv::core::{self, FileStorage, FileStorageTraitConst, Mat, MatTraitConst, Point2f, Ptr, Vector};
 use opencv::prelude::*;
+use slidetrack_core::{Image, PixelFormat};
 use thiserror::Error;
 
 use crate::aruco::{Dictionary, MarkerDetection};
@@ -205,20 +206,26 @@ impl Photo {
     }
 }
 
-/// Reads an image file as OpenCV does (`imread`, colour).
+/// An RGB8 image as an OpenCV BGR matrix (what `imread` gives).
+pub(crate) fn bgr_mat(image: &Image) -> Result<Mat, MarkerToolError> {
+    let rgb = Mat::from_slice(&image.data).cv("Mat from image")?;
+    let rgb = rgb.reshape(3, image.height as i32).cv("Mat::reshape")?;
+    let mut bgr = Mat::default();
+    opencv::imgproc::cvt_color_def(&rgb, &mut bgr, opencv::imgproc::COLOR_RGB2BGR).cv("cvtColor")?;
+    Ok(bgr)
+}
+
+/// Reads a JPEG or PNG file as OpenCV's `imread` does (colour, BGR).
 pub fn read_image(path: &Path) -> Result<Photo, MarkerToolError> {
     let bad = || MarkerToolError::BadFile {
         path: path.to_path_buf(),
-        detail: "cannot read it as an image (missing, or a format OpenCV cannot decode)".into(),
+        detail: "cannot read it as an image (missing, or neither JPEG nor PNG)".into(),
     };
     if !path.is_file() {
         // OpenCV would log a warning of its own before failing.
         return Err(bad());
     }
-    let mat = opencv::imgcodecs::imread(path, opencv::imgcodecs::IMREAD_COLOR).map_err(|_| bad())?;
-    if mat.empty() {
-        return Err(bad());
-    }
-    let (width, height) = (mat.cols().max(0) as u32, mat.rows().max(0) as u32);
-    Ok(Photo { mat, width, height })
+    let bytes = std::fs::read(path).map_err(|_| bad())?;
+    let rgb = crate::codec::decode(&bytes, PixelFormat::Rgb8).map_err(|_| bad())?;
+    Ok(Photo { mat: bgr_mat(&rgb)?, width: rgb.width, height: rgb.height })
 }

@@ -1,4 +1,3 @@
-use opencv::core::{MatTraitConst, MatTraitConstManual};
 use slidetrack_core::{Image, MarkerPattern, PixelFormat};
 
 use super::*;
@@ -104,10 +103,9 @@ fn deviation_from_published_corners(refinement: CornerRefinement) -> (f64, f64, 
         serde_json::from_str(&std::fs::read_to_string(testdata("singlemarkersoriginal.gt.json")).unwrap())
             .unwrap();
     let dictionary = Dictionary::from_name(gt["dictionary"].as_str().unwrap()).unwrap();
+    let bytes = std::fs::read(testdata("singlemarkersoriginal.jpg")).expect("test photo");
     let image =
-        opencv::imgcodecs::imread(testdata("singlemarkersoriginal.jpg"), opencv::imgcodecs::IMREAD_COLOR)
-            .unwrap();
-    assert!(!image.empty(), "test photo missing");
+        crate::marker_tool::bgr_mat(&crate::codec::decode(&bytes, PixelFormat::Rgb8).unwrap()).unwrap();
     let found = MarkerDetector::with_refinement(dictionary, refinement).unwrap().detect_mat(&image).unwrap();
     let markers = gt["markers"].as_array().unwrap();
     assert_eq!(found.len(), markers.len(), "{found:?}");
@@ -148,12 +146,8 @@ fn sub_pixel_corners_of_opencvs_photo_stay_near_its_ground_truth() {
 
 #[test]
 fn a_detection_in_a_region_matches_the_whole_frame_detection() {
-    let image =
-        opencv::imgcodecs::imread(testdata("singlemarkersoriginal.jpg"), opencv::imgcodecs::IMREAD_GRAYSCALE)
-            .unwrap();
-    let (width, height) = (image.cols() as u32, image.rows() as u32);
-    let gray =
-        Image { width, height, format: PixelFormat::Gray8, data: image.data_bytes().unwrap().to_vec() };
+    let bytes = std::fs::read(testdata("singlemarkersoriginal.jpg")).expect("test photo");
+    let gray = crate::codec::decode(&bytes, PixelFormat::Gray8).unwrap();
     let mut detector = MarkerDetector::new(Dictionary::from_name("DICT_6X6_250").unwrap()).unwrap();
     let whole = detector.detect(&gray).unwrap();
     let marker_40 = whole.iter().find(|d| d.id == 40).unwrap();

@@ -6,7 +6,7 @@
 //! ([`register_depth_to_color`]).
 
 mod camera_pair;
-mod codec;
+pub(crate) mod codec;
 mod recorded;
 mod recorded_truth;
 pub mod registration;

@@ -7,14 +7,12 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
-use opencv::imgcodecs;
-use opencv::prelude::*;
-use slidetrack_core::{CameraIntrinsics, ObjectTruth, RgbdFrame, TimeNs};
+use slidetrack_calibration::codec;
+use slidetrack_core::{CameraIntrinsics, DepthImage, ObjectTruth, PixelFormat, RgbdFrame, TimeNs};
 
-use super::codec::{bgr_mat_to_rgb, depth_mat};
+use super::codec::decode_file;
 use super::source::{RgbdSample, RgbdSource};
 use crate::VisionError;
-use crate::error::OpenCvContext;
 
 /// The 21 YCB-Video classes; class index `i` (1-based, as in the label
 /// images and `cls_indexes`) is `YCB_CLASSES[i - 1]`.
@@ -169,10 +167,9 @@ impl YcbDirectory {
 
     fn read(&self, name: &str, index: usize) -> Result<RgbdSample, VisionError> {
         let path = |suffix: &str| self.dir.join(format!("{name}-{suffix}"));
-        let color = imread(&path("color.png"), imgcodecs::IMREAD_COLOR)?;
-        let color = bgr_mat_to_rgb(&color, "colour image")?;
-        let depth = imread(&path("depth.png"), imgcodecs::IMREAD_ANYDEPTH)?;
-        let depth = depth_mat(&depth, 1.0 / self.factor_depth, "depth image")?;
+        let color = decode_file(&path("color.png"), |b| codec::decode(b, PixelFormat::Rgb8))?;
+        let (width, height, data) = decode_file(&path("depth.png"), codec::decode_png16)?;
+        let depth = DepthImage { width, height, data, scale_m: 1.0 / self.factor_depth };
         VisionError::check_size("depth image", (depth.width, depth.height), (color.width, color.height))?;
         let t = TimeNs((index as f64 / 30.0 * 1e9).round() as u64);
         let truth = if path("meta.mat").exists() {
@@ -186,14 +183,9 @@ impl YcbDirectory {
             None
         };
         let truth_mask = if path("label.png").exists() {
-            let label = imread(&path("label.png"), imgcodecs::IMREAD_GRAYSCALE)?;
-            let bytes: Vec<u8> = label
-                .data_bytes()
-                .cv("label bytes")?
-                .iter()
-                .map(|c| u8::from(u32::from(*c) == self.class))
-                .collect();
-            Some(crate::cloud::mask(label.cols() as u32, label.rows() as u32, &bytes)?)
+            let label = decode_file(&path("label.png"), |b| codec::decode(b, PixelFormat::Gray8))?;
+            let bytes: Vec<u8> = label.data.iter().map(|c| u8::from(u32::from(*c) == self.class)).collect();
+            Some(crate::cloud::mask(label.width, label.height, &bytes)?)
         } else {
             None
         };
@@ -222,27 +214,6 @@ impl RgbdSource for YcbDirectory {
     }
 }
 
-fn imread(path: &Path, flags: i32) -> Result<opencv::core::Mat, VisionError> {
-    let name = path
-        .to_str()
-        .ok_or_else(|| VisionError::BadFile { path: path.into(), detail: "the path is not UTF-8".into() })?;
-    if !path.exists() {
-        return Err(VisionError::Io {
-            path: path.into(),
-            source: std::io::Error::from(std::io::ErrorKind::NotFound),
-        });
-    }
-    let m = imgcodecs::imread(name, flags).cv("imread")?;
-    if m.empty() {
-        return Err(VisionError::BadFile {
-            path: path.into(),
-            detail: "not an image OpenCV can read".into(),
-        });
-    }
-    Ok(m)
-}
-
 fn image_size(path: &Path) -> Result<(u32, u32), VisionError> {
-    let m = imread(path, imgcodecs::IMREAD_UNCHANGED)?;
-    Ok((m.cols() as u32, m.rows() as u32))
+    decode_file(path, codec::dimensions)
 }

@@ -6,15 +6,12 @@ use std::iter::Peekable;
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
-use opencv::imgcodecs;
-use opencv::prelude::*;
 use slidetrack_core::TimeNs;
 use slidetrack_estimators::roft::Mask;
 use slidetrack_session::{ChannelMessage, MessageReader, RawMessage, ReadOptions, VisionMask, VisionPose};
 
 use super::source::{Arrivals, Delayed, FrameTruth, MeasurementSource};
 use crate::VisionError;
-use crate::error::OpenCvContext;
 
 /// Masks and poses listed in a directory:
 ///
@@ -101,24 +98,10 @@ impl MeasurementSource for FileSequence {
 
 /// An 8-bit PNG mask, non-zero on the object.
 pub fn read_mask(path: &Path) -> Result<Mask, VisionError> {
-    let name = path
-        .to_str()
-        .ok_or_else(|| VisionError::BadFile { path: path.into(), detail: "the path is not UTF-8".into() })?;
-    if !path.exists() {
-        return Err(VisionError::Io {
-            path: path.into(),
-            source: std::io::Error::from(std::io::ErrorKind::NotFound),
-        });
-    }
-    let m = imgcodecs::imread(name, imgcodecs::IMREAD_GRAYSCALE).cv("imread mask")?;
-    if m.empty() {
-        return Err(VisionError::BadFile {
-            path: path.into(),
-            detail: "not an image OpenCV can read".into(),
-        });
-    }
-    let bytes = m.data_bytes().cv("mask bytes")?;
-    crate::cloud::mask(m.cols() as u32, m.rows() as u32, bytes)
+    let gray = crate::input::codec::decode_file(path, |b| {
+        slidetrack_calibration::codec::decode(b, slidetrack_core::PixelFormat::Gray8)
+    })?;
+    crate::cloud::mask(gray.width, gray.height, &gray.data)
 }
 
 fn csv_lines(path: &Path) -> Result<Vec<(usize, Vec<String>)>, VisionError> {

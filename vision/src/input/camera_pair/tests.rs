@@ -4,10 +4,7 @@
 use std::time::Duration;
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-use opencv::core::{Mat, Scalar, Vector};
-use opencv::imgcodecs;
-use opencv::prelude::*;
-use slidetrack_core::{DepthImage, EncodedImage};
+use slidetrack_core::{DepthImage, EncodedImage, Image, PixelFormat};
 
 use super::*;
 
@@ -40,27 +37,19 @@ fn intrinsics(width: u32, height: u32, f: f64) -> CameraIntrinsics {
     }
 }
 
-fn encoded(ext: &str, mat: &Mat) -> EncodedImage {
-    let mut bytes = Vector::<u8>::new();
-    imgcodecs::imencode(ext, mat, &mut bytes, &Vector::new()).unwrap();
-    EncodedImage { format: ext.trim_start_matches('.').into(), bytes: bytes.to_vec() }
-}
-
 /// A colour frame at `t_ms` whose blue channel is `tag`.
 fn color(t_ms: u64, tag: u8, w: i32, h: i32) -> Frame {
-    let rgb = Mat::new_rows_cols_with_default(
-        h,
-        w,
-        opencv::core::CV_8UC3,
-        Scalar::new(f64::from(tag), 20.0, 30.0, 0.0),
-    )
-    .unwrap();
-    Frame { t: TimeNs(t_ms * 1_000_000), sequence: t_ms, pixels: None, encoded: Some(encoded(".png", &rgb)) }
+    let data = [30, 20, tag].repeat((w * h) as usize);
+    let rgb = Image { width: w as u32, height: h as u32, format: PixelFormat::Rgb8, data };
+    let png = slidetrack_calibration::codec::encode_png(&rgb).unwrap();
+    Frame { t: TimeNs(t_ms * 1_000_000), sequence: t_ms, pixels: None, encoded: Some(png) }
 }
 
 fn depth_png(t_ms: u64, data: &[u16], w: i32) -> Frame {
-    let mat = Mat::from_slice(data).unwrap().reshape(1, data.len() as i32 / w).unwrap().try_clone().unwrap();
-    Frame { t: TimeNs(t_ms * 1_000_000), sequence: t_ms, pixels: None, encoded: Some(encoded(".png", &mat)) }
+    let h = data.len() as u32 / w as u32;
+    let bytes = slidetrack_calibration::codec::encode_png16(w as u32, h, data).unwrap();
+    let png = EncodedImage { format: "png".into(), bytes };
+    Frame { t: TimeNs(t_ms * 1_000_000), sequence: t_ms, pixels: None, encoded: Some(png) }
 }
 
 fn depth(t_ms: u64, mm: u16, w: i32, h: i32) -> Frame {
