@@ -133,7 +133,7 @@ pub fn decode_png16(bytes: &[u8]) -> Result<(u32, u32, Vec<u16>), CodecError> {
 /// Encodes `image` as JPEG at `quality` (1-100): 4:2:0 chroma for colour,
 /// as OpenCV's `imencode` does by default.
 pub fn encode_jpeg(image: &Image, quality: u8) -> Result<EncodedImage, MarkerError> {
-    check_size(image)?;
+    MarkerError::check_bytes(image)?;
     let (pixel, subsamp) = match image.format {
         PixelFormat::Gray8 => (turbojpeg::PixelFormat::GRAY, turbojpeg::Subsamp::Gray),
         PixelFormat::Rgb8 => (turbojpeg::PixelFormat::RGB, turbojpeg::Subsamp::Sub2x2),
@@ -154,7 +154,7 @@ pub fn encode_jpeg(image: &Image, quality: u8) -> Result<EncodedImage, MarkerErr
 /// Encodes an 8-bit image (gray or RGB) as PNG, with OpenCV's default
 /// settings for speed (the `Sub` filter, the fastest compression).
 pub fn encode_png(image: &Image) -> Result<EncodedImage, MarkerError> {
-    check_size(image)?;
+    MarkerError::check_bytes(image)?;
     let color = match image.format {
         PixelFormat::Gray8 => png::ColorType::Grayscale,
         PixelFormat::Rgb8 => png::ColorType::Rgb,
@@ -191,21 +191,6 @@ fn write_png(
     writer.write_image_data(data)?;
     writer.finish()?;
     Ok(out)
-}
-
-fn check_size(image: &Image) -> Result<(), MarkerError> {
-    let channels = image.format.channels();
-    let expected = image.width as usize * image.height as usize * channels;
-    if image.data.len() != expected || image.width == 0 || image.height == 0 {
-        return Err(MarkerError::BadImage {
-            width: image.width,
-            height: image.height,
-            channels,
-            expected,
-            len: image.data.len(),
-        });
-    }
-    Ok(())
 }
 
 #[cfg(test)]

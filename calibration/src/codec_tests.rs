@@ -99,4 +99,8 @@ fn an_image_with_the_wrong_byte_count_is_refused() {
     let image = Image { width: 10, height: 10, format: PixelFormat::Rgb8, data: vec![0; 100] };
     assert!(matches!(encode_jpeg(&image, 80), Err(MarkerError::BadImage { .. })));
     assert!(matches!(encode_png(&image), Err(MarkerError::BadImage { .. })));
+    // No pixels: the encoders' own errors, not a panic.
+    let empty = Image { width: 0, height: 0, format: PixelFormat::Gray8, data: vec![] };
+    assert!(matches!(encode_jpeg(&empty, 80), Err(MarkerError::Encode { format: "JPEG", .. })));
+    assert!(matches!(encode_png(&empty), Err(MarkerError::Encode { format: "PNG", .. })));
 }

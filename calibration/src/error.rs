@@ -109,6 +109,25 @@ impl<T> OpenCvContext<T> for opencv::Result<T> {
     }
 }
 
+impl MarkerError {
+    /// [`MarkerError::BadImage`] unless `image` holds exactly the bytes of
+    /// its pixels.
+    pub(crate) fn check_bytes(image: &slidetrack_core::Image) -> Result<(), MarkerError> {
+        let channels = image.format.channels();
+        let expected = image.width as usize * image.height as usize * channels;
+        if image.data.len() != expected {
+            return Err(MarkerError::BadImage {
+                width: image.width,
+                height: image.height,
+                channels,
+                expected,
+                len: image.data.len(),
+            });
+        }
+        Ok(())
+    }
+}
+
 /// Why image bytes could not be decoded or encoded.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -96,17 +96,7 @@ impl MarkerDetector {
     /// Every marker of the dictionary inside `roi` (clipped to the image);
     /// corners are in full-image pixels.
     pub fn detect_in(&mut self, image: &Image, roi: PixelRoi) -> Result<Vec<MarkerDetection>, MarkerError> {
-        let channels = image.format.channels();
-        let expected = image.width as usize * image.height as usize * channels;
-        if image.data.len() != expected {
-            return Err(MarkerError::BadImage {
-                width: image.width,
-                height: image.height,
-                channels,
-                expected,
-                len: image.data.len(),
-            });
-        }
+        MarkerError::check_bytes(image)?;
         let x0 = roi.x.min(image.width);
         let y0 = roi.y.min(image.height);
         let width = roi.width.min(image.width - x0);
