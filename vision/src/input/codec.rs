@@ -17,19 +17,11 @@ pub fn decode_color(bytes: &[u8]) -> Result<Image, VisionError> {
 /// Encodes an RGB8 colour image as JPEG (`quality` 1-100) for
 /// `foxglove.CompressedImage` channels.
 pub fn encode_color_jpeg(image: &Image, quality: i32) -> Result<EncodedImage, VisionError> {
-    if image.format != PixelFormat::Rgb8
-        || image.data.len() != image.width as usize * image.height as usize * 3
-        || image.width == 0
-    {
+    // The codec checks the byte count; it also takes gray, which this does not.
+    if image.format != PixelFormat::Rgb8 {
         return Err(VisionError::BadImage {
             what: "colour image",
-            detail: format!(
-                "{}x{} px {:?} with {} bytes is not RGB8",
-                image.width,
-                image.height,
-                image.format,
-                image.data.len()
-            ),
+            detail: format!("{}x{} px {:?} is not RGB8", image.width, image.height, image.format),
         });
     }
     codec::encode_jpeg(image, quality.clamp(1, 100) as u8)
@@ -59,12 +51,6 @@ pub(crate) fn decode_file<T>(
 
 /// Encodes a depth image as a 16-bit PNG (its raw units; the scale is not kept).
 pub fn encode_depth_png(depth: &DepthImage) -> Result<EncodedImage, VisionError> {
-    if depth.data.len() != depth.width as usize * depth.height as usize || depth.width == 0 {
-        return Err(VisionError::BadImage {
-            what: "depth image",
-            detail: format!("{}x{} px with {} values", depth.width, depth.height, depth.data.len()),
-        });
-    }
     let bytes = codec::encode_png16(depth.width, depth.height, &depth.data)
         .map_err(|e| VisionError::BadImage { what: "depth image", detail: e.to_string() })?;
     Ok(EncodedImage { format: "png".into(), bytes })
