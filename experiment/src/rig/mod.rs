@@ -51,7 +51,8 @@ pub fn build_sim_rig(spec: &TrialSpec) -> Result<RigSetup> {
             geometry.object_start_in_hand_m,
             geometry.sliding_axis_in_hand,
         )?;
-        // libjpeg-turbo through OpenCV: several times faster than the built-in encoder.
+        // libjpeg-turbo (calibration's codec): several times faster than the pure-Rust
+        // encoder of `slidetrack_core`.
         let quality = camera.jpeg_quality();
         let encode: ImageEncodeFn = Box::new(move |image| match encode_jpeg(image, quality) {
             Ok(encoded) => Some(encoded),
