@@ -225,10 +225,7 @@ impl GrayImage {
 /// `cvtColor(BGR2GRAY)` does).
 pub fn read_gray(path: &Path) -> Result<GrayImage, CalibrationError> {
     let unreadable = || CalibrationError::UnreadableImage { path: path.to_path_buf() };
-    if !path.is_file() {
-        // OpenCV would log a warning of its own before failing.
-        return Err(unreadable());
-    }
+    // A missing file or a directory fails to read.
     let bytes = std::fs::read(path).map_err(|_| unreadable())?;
     // JPEG or PNG as `imread`'s colour, then `RGB2GRAY`: the same gray as
     // `BGR2GRAY` on `imread`'s BGR.

@@ -221,10 +221,7 @@ pub fn read_image(path: &Path) -> Result<Photo, MarkerToolError> {
         path: path.to_path_buf(),
         detail: "cannot read it as an image (missing, or neither JPEG nor PNG)".into(),
     };
-    if !path.is_file() {
-        // OpenCV would log a warning of its own before failing.
-        return Err(bad());
-    }
+    // A missing file or a directory fails to read.
     let bytes = std::fs::read(path).map_err(|_| bad())?;
     let rgb = crate::codec::decode(&bytes, PixelFormat::Rgb8).map_err(|_| bad())?;
     Ok(Photo { mat: bgr_mat(&rgb)?, width: rgb.width, height: rgb.height })

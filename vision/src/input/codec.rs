@@ -34,7 +34,7 @@ pub fn decode_depth(bytes: &[u8], scale_m: f64) -> Result<DepthImage, VisionErro
     Ok(DepthImage { width, height, data, scale_m })
 }
 
-/// A decoding error as a bad image.
+/// A codec error as a bad image.
 pub(crate) fn bad(what: &'static str, e: &CodecError) -> VisionError {
     VisionError::BadImage { what, detail: e.to_string() }
 }
@@ -51,7 +51,7 @@ pub(crate) fn decode_file<T>(
 
 /// Encodes a depth image as a 16-bit PNG (its raw units; the scale is not kept).
 pub fn encode_depth_png(depth: &DepthImage) -> Result<EncodedImage, VisionError> {
-    let bytes = codec::encode_png16(depth.width, depth.height, &depth.data)
-        .map_err(|e| VisionError::BadImage { what: "depth image", detail: e.to_string() })?;
+    let bytes =
+        codec::encode_png16(depth.width, depth.height, &depth.data).map_err(|e| bad("depth image", &e))?;
     Ok(EncodedImage { format: "png".into(), bytes })
 }
